@@ -1,0 +1,3 @@
+from rollsim.cli import entry
+
+entry()

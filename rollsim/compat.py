@@ -1,0 +1,73 @@
+"""The only module that touches DOLFINx APIs which changed after 0.5.
+
+Porting to a newer DOLFINx means changing this file, not the callers.
+Targets DOLFINx 0.5.2 (Debian bookworm).
+"""
+from __future__ import annotations
+
+import numpy as np
+import ufl
+from dolfinx import fem, io
+from mpi4py import MPI
+
+DOLFINX_VERSION = "0.5"
+
+
+def model_to_mesh(model, comm: MPI.Comm, rank: int, gdim: int):
+    """gmsh model (built on ``rank``) -> (mesh, cell_tags, facet_tags), distributed over ``comm``."""
+    from dolfinx.io import gmshio
+    return gmshio.model_to_mesh(model, comm, rank, gdim=gdim)
+
+
+def vector_space(mesh, degree: int, family: str = "Lagrange"):
+    """Vector-valued continuous Lagrange space (one component per geometric dimension)."""
+    return fem.VectorFunctionSpace(mesh, (family, degree))
+
+
+def scalar_space(mesh, degree: int, family: str = "Lagrange"):
+    return fem.FunctionSpace(mesh, (family, degree))
+
+
+def quadrature_space(mesh, degree: int, shape: tuple[int, ...] = ()):
+    """Space of values at the quadrature points of ``degree`` (scalar, vector or tensor)."""
+    cell = mesh.ufl_cell()
+    if shape == ():
+        element = ufl.FiniteElement("Quadrature", cell, degree, quad_scheme="default")
+    elif len(shape) == 1:
+        element = ufl.VectorElement("Quadrature", cell, degree, dim=shape[0], quad_scheme="default")
+    else:
+        element = ufl.TensorElement("Quadrature", cell, degree, shape=shape, quad_scheme="default")
+    return fem.FunctionSpace(mesh, element)
+
+
+def quadrature_points(mesh, degree: int) -> np.ndarray:
+    """Reference quadrature points of the default scheme used by ``quadrature_space``."""
+    import basix
+    cell = {"triangle": basix.CellType.triangle, "tetrahedron": basix.CellType.tetrahedron,
+            "quadrilateral": basix.CellType.quadrilateral,
+            "hexahedron": basix.CellType.hexahedron}[mesh.topology.cell_name()]
+    points, _ = basix.make_quadrature(cell, degree)
+    return points
+
+
+def expression(ufl_expr, points: np.ndarray):
+    """Compiled UFL expression evaluated at reference ``points``."""
+    return fem.Expression(ufl_expr, points)
+
+
+def evaluate_into(expr, target: fem.Function) -> None:
+    """Evaluate ``expr`` on the local cells and store it in the quadrature Function ``target``.
+
+    Quadrature-space ``Function.interpolate`` does not work in 0.5.2, hence this.
+    """
+    mesh = target.function_space.mesh
+    n_cells = mesh.topology.index_map(mesh.topology.dim).size_local
+    cells = np.arange(n_cells, dtype=np.int32)
+    values = expr.eval(cells)  # owned cells come first in a quadrature dofmap
+    target.x.array[:values.size] = values.reshape(-1)
+    target.x.scatter_forward()
+
+
+def xdmf_file(comm: MPI.Comm, path, mode: str = "w"):
+    """XDMF writer (no ADIOS2 in the Debian build)."""
+    return io.XDMFFile(comm, str(path), mode)

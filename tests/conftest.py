@@ -1,0 +1,39 @@
+"""Shared test fixtures: MPI-aware temporary directories, serial-only marker, cleanup."""
+from __future__ import annotations
+
+import gc
+import pathlib
+import shutil
+import tempfile
+
+import pytest
+from mpi4py import MPI
+
+
+@pytest.fixture(scope="session")
+def comm() -> MPI.Comm:
+    return MPI.COMM_WORLD
+
+
+@pytest.fixture
+def tmp_mpi_path(comm):
+    """A temporary directory shared by all ranks (made on rank 0, removed after the test)."""
+    path = pathlib.Path(tempfile.mkdtemp(prefix="rollsim-")) if comm.rank == 0 else None
+    path = comm.bcast(path, root=0)
+    yield path
+    comm.barrier()
+    if comm.rank == 0:
+        shutil.rmtree(path, ignore_errors=True)
+
+
+def pytest_runtest_setup(item):
+    if item.get_closest_marker("serial") and MPI.COMM_WORLD.size > 1:
+        pytest.skip("serial-only test")
+
+
+@pytest.fixture(autouse=True)
+def _collect_and_sync():
+    """Free PETSc objects deterministically and keep ranks in step between tests."""
+    yield
+    gc.collect()
+    MPI.COMM_WORLD.barrier()
