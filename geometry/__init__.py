@@ -1,0 +1,1 @@
+"""rollsim.geometry (under construction)."""

@@ -1,0 +1,1 @@
+"""rollsim.solver (under construction)."""
