@@ -124,6 +124,11 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--load", type=_quantity(FORCE), help="vertical wheel force Q_V, N")
     g.add_argument("--sinkage", type=_quantity(LENGTH), help="sinkage on the top layer, m")
 
+    p = sub.add_parser("check", parents=[common], help="validate a scene file and print it in SI",
+                       description="Validate a scene file (TOML) and print it in SI units "
+                                   "(angles in degrees). " + UNITS_HELP)
+    p.add_argument("scene", help="scene file (TOML)")
+
     p = sub.add_parser("design", parents=[common], help="design charts, wheel comparison and lab validation",
                        description="The analytic design study: sinkage-strength charts for several "
                                    "loads and two wheels, influence depth vs load, the two-wheel "
@@ -373,6 +378,14 @@ def cmd_influence(args) -> dict:
     return out
 
 
+def cmd_check(args) -> dict:
+    from rollsim.scene import load_scene
+    scene = load_scene(args.scene).to_dict()
+    if not args.json:
+        print(json.dumps(scene, indent=2))
+    return scene
+
+
 def cmd_design(args) -> dict:
     from rollsim.log import setup_logging
     from rollsim.studies.design import run_design_study
@@ -380,7 +393,8 @@ def cmd_design(args) -> dict:
     return run_design_study(args.out, quiet=args.quiet)
 
 
-COMMANDS = {"predict": cmd_predict, "invert": cmd_invert, "influence": cmd_influence, "design": cmd_design}
+COMMANDS = {"predict": cmd_predict, "invert": cmd_invert, "influence": cmd_influence, "check": cmd_check,
+            "design": cmd_design}
 
 
 def main(argv: list[str] | None = None) -> int:

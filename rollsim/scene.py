@@ -1,0 +1,274 @@
+"""Scene files (TOML, ``shared/spec/interfaces.md``): loading and validation, SI inside.
+
+``load_scene(path) -> Scene``. Any bad value raises ``InputError`` whose field is
+the dotted key (``soil.layers[1].nu``); unknown keys are errors too, so a typo
+never silently falls back to a default. Angles are stored in radians.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+import pathlib
+import tomllib
+from dataclasses import dataclass
+
+from rollsim.units import (ANGLE, DIMENSIONLESS, FORCE, LENGTH, PRESSURE, UNIT_WEIGHT, InputError, Kind,
+                           to_si)
+
+WHEEL_TYPES = ("rigid", "pneumatic")
+WHEEL_SHAPES = ("cylinder", "torus")
+SOIL_MODELS = ("von-mises", "drucker-prager", "mohr-coulomb")
+MATCHES = ("compression", "extension", "plane-strain")
+PROTOCOLS = ("indentation", "rolling-continuous", "rolling-constant-load")
+ACCURACIES = ("fast", "standard", "accurate")
+TREAD_THICKNESS_RATIO = 0.046  # t_tread / d of the report's tire
+
+
+@dataclass(frozen=True)
+class WheelSpec:
+    """The wheel: dimensions (m), Coulomb friction, and for a tire its hub and carcass."""
+
+    type: str
+    shape: str
+    diameter: float
+    width: float
+    fillet: float
+    friction: float
+    hub_diameter: float | None = None
+    inflation: float | None = None  # Pa
+    E_carcass: float | None = None  # Pa
+    nu_carcass: float | None = None
+    t_tread: float | None = None  # m
+
+
+@dataclass(frozen=True)
+class LayerSpec:
+    """One soil layer. Strength as given: (phi_dp, c_dp) or Mohr-Coulomb (c, phi) + match."""
+
+    model: str
+    E: float
+    nu: float
+    thickness: float | None  # m; None for the last layer
+    phi_dp: float | None = None  # rad
+    c_dp: float | None = None  # Pa
+    c: float | None = None  # Pa
+    phi: float | None = None  # rad
+    match: str = "compression"
+    dilation: float = 0.0  # rad
+
+
+@dataclass(frozen=True)
+class SoilSpec:
+    gamma: float  # N/m^3
+    layers: tuple[LayerSpec, ...]
+
+
+@dataclass(frozen=True)
+class LoadingSpec:
+    protocol: str
+    max_sinkage: float | None = None  # m
+    load: float | None = None  # N
+    travel: float | None = None  # m
+
+
+@dataclass(frozen=True)
+class ModelSpec:
+    accuracy: str = "standard"
+
+
+@dataclass(frozen=True)
+class Scene:
+    wheel: WheelSpec
+    soil: SoilSpec
+    loading: LoadingSpec
+    model: ModelSpec
+
+    def to_dict(self) -> dict:
+        """The scene in SI (angles in degrees, as a user reads them) for summaries."""
+        def convert(obj, key=""):
+            if isinstance(obj, dict):
+                return {k: convert(v, k) for k, v in obj.items()}
+            if isinstance(obj, (list, tuple)):
+                return [convert(v) for v in obj]
+            if isinstance(obj, float) and key in ANGLE_KEYS:
+                return math.degrees(obj)
+            return obj
+        return convert(dataclasses.asdict(self))
+
+
+ANGLE_KEYS = {"phi_dp", "phi", "dilation"}
+
+
+class _Table:
+    """A TOML table being read: typed getters that name the dotted key, and leftovers are errors."""
+
+    def __init__(self, data, path: str):
+        if not isinstance(data, dict):
+            raise InputError(path, "must be a table")
+        self.data, self.path, self.used = data, path, set()
+
+    def key(self, name):
+        return f"{self.path}.{name}" if self.path else name
+
+    def has(self, name):
+        return name in self.data
+
+    def raw(self, name, default=None):
+        self.used.add(name)
+        return self.data.get(name, default)
+
+    def quantity(self, name, kind: Kind, *, default=None, required=False, positive=False, minimum=None):
+        if name not in self.data:
+            if required:
+                raise InputError(self.key(name), "is required")
+            return default
+        value = to_si(self.raw(name), kind, self.key(name))
+        if kind is ANGLE:
+            value = math.radians(value)
+        if positive and not value > 0:
+            raise InputError(self.key(name), "must be positive")
+        if minimum is not None and value < minimum:
+            raise InputError(self.key(name), f"must be at least {minimum}")
+        return value
+
+    def choice(self, name, allowed, default=None):
+        if name not in self.data and default is not None:
+            return default
+        value = self.raw(name)
+        if value not in allowed:
+            raise InputError(self.key(name), f"must be one of {', '.join(allowed)}, got {value!r}")
+        return value
+
+    def done(self):
+        extra = sorted(set(self.data) - self.used)
+        if extra:
+            raise InputError(self.key(extra[0]), "unknown key")
+
+
+def _wheel(t: _Table) -> WheelSpec:
+    kind = t.choice("type", WHEEL_TYPES, default="rigid")
+    shape = t.choice("shape", WHEEL_SHAPES, default="cylinder")
+    d = t.quantity("diameter", LENGTH, required=True, positive=True)
+    b = t.quantity("width", LENGTH, required=True, positive=True)
+    fillet = t.quantity("fillet", LENGTH, default=b / 12, minimum=0.0)
+    if fillet >= b / 2:
+        raise InputError(t.key("fillet"), f"must be less than half the width ({b / 2:g} m)")
+    friction = t.quantity("friction", DIMENSIONLESS, default=0.8, minimum=0.0)
+    tire = {}
+    if kind == "pneumatic":
+        if t.has("shape"):
+            raise InputError(t.key("shape"), "applies to rigid wheels only")
+        tire = dict(hub_diameter=t.quantity("hub_diameter", LENGTH, required=True, positive=True),
+                    inflation=t.quantity("inflation", PRESSURE, required=True, positive=True),
+                    E_carcass=t.quantity("E_carcass", PRESSURE, required=True, positive=True),
+                    nu_carcass=t.quantity("nu_carcass", DIMENSIONLESS, default=0.45),
+                    t_tread=t.quantity("t_tread", LENGTH, default=TREAD_THICKNESS_RATIO * d, positive=True))
+        if not tire["hub_diameter"] < d - 2 * tire["t_tread"]:
+            raise InputError(t.key("hub_diameter"), "must be smaller than the tire's inner diameter")
+        if not -1 < tire["nu_carcass"] < 0.5:
+            raise InputError(t.key("nu_carcass"), "must be in (-1, 0.5)")
+    t.done()
+    return WheelSpec(kind, shape, d, b, fillet, friction, **tire)
+
+
+def _layer(t: _Table, last: bool) -> LayerSpec:
+    model = t.choice("model", SOIL_MODELS)
+    E = t.quantity("E", PRESSURE, required=True, positive=True)
+    nu = t.quantity("nu", DIMENSIONLESS, required=True)
+    if not -1 < nu < 0.5:
+        raise InputError(t.key("nu"), "must be in (-1, 0.5)")
+    if last and t.has("thickness"):
+        raise InputError(t.key("thickness"), "the last layer fills the rest of the block: omit its thickness")
+    thickness = None if last else t.quantity("thickness", LENGTH, required=True, positive=True)
+    dp_given = t.has("phi_dp") or t.has("c_dp")
+    mc_given = t.has("c") or t.has("phi")
+    if dp_given and mc_given:
+        raise InputError(t.key("c" if t.has("c") else "phi"),
+                         "give Drucker-Prager (phi_dp, c_dp) or Mohr-Coulomb (c, phi), not both")
+    strength: dict = {}
+    if model == "von-mises":
+        if t.has("phi_dp") or t.has("phi"):
+            raise InputError(t.key("phi_dp" if t.has("phi_dp") else "phi"), "von Mises soil has no friction angle")
+        if not dp_given and not mc_given:
+            raise InputError(t.key("c_dp"), "give the yield stress c_dp or the cohesion c")
+    elif model == "mohr-coulomb" and dp_given:
+        raise InputError(t.key("phi_dp" if t.has("phi_dp") else "c_dp"), "mohr-coulomb takes c and phi")
+    if dp_given:
+        strength["c_dp"] = t.quantity("c_dp", PRESSURE, required=True, minimum=0.0)
+        strength["phi_dp"] = t.quantity("phi_dp", ANGLE, default=0.0 if model == "von-mises" else None,
+                                        required=model != "von-mises", minimum=0.0)
+        if strength["phi_dp"] >= math.radians(71.5):  # tan(phi_dp) = 3: the cone degenerates
+            raise InputError(t.key("phi_dp"), "must be below 71.5 deg")
+    else:
+        strength["c"] = t.quantity("c", PRESSURE, required=True, minimum=0.0)
+        strength["phi"] = t.quantity("phi", ANGLE, default=0.0 if model == "von-mises" else None,
+                                     required=model != "von-mises", minimum=0.0)
+        if strength["phi"] >= math.radians(90):
+            raise InputError(t.key("phi"), "must be below 90 deg")
+        strength["match"] = t.choice("match", MATCHES, default="compression")
+    friction_angle = strength.get("phi_dp", strength.get("phi", 0.0))
+    if (strength.get("c_dp", strength.get("c")) == 0) and friction_angle == 0:
+        raise InputError(t.key("c_dp" if dp_given else "c"), "a soil without cohesion needs a friction angle")
+    dilation = t.quantity("dilation", ANGLE, default=0.0, minimum=0.0)
+    if dilation > friction_angle:
+        raise InputError(t.key("dilation"), "must not exceed the friction angle")
+    t.done()
+    return LayerSpec(model=model, E=E, nu=nu, thickness=thickness, dilation=dilation, **strength)
+
+
+def _soil(t: _Table) -> SoilSpec:
+    gamma = t.quantity("gamma", UNIT_WEIGHT, required=True, positive=True)
+    layers = t.raw("layers")
+    if not isinstance(layers, list) or not layers:
+        raise InputError(t.key("layers"), "give at least one [[soil.layers]] table")
+    specs = tuple(_layer(_Table(layer, f"{t.key('layers')}[{i}]"), i == len(layers) - 1)
+                  for i, layer in enumerate(layers))
+    t.done()
+    return SoilSpec(gamma, specs)
+
+
+def _loading(t: _Table, wheel: WheelSpec) -> LoadingSpec:
+    protocol = t.choice("protocol", PROTOCOLS)
+    spec = {"protocol": protocol}
+    if protocol in ("indentation", "rolling-continuous"):
+        spec["max_sinkage"] = t.quantity("max_sinkage", LENGTH, required=True, positive=True)
+        if spec["max_sinkage"] > 0.25 * wheel.diameter:
+            raise InputError(t.key("max_sinkage"), f"must be at most d/4 = {wheel.diameter / 4:g} m")
+    else:
+        spec["load"] = t.quantity("load", FORCE, required=True, positive=True)
+    if protocol.startswith("rolling"):
+        spec["travel"] = t.quantity("travel", LENGTH, required=True, positive=True)
+    t.done()
+    return LoadingSpec(**spec)
+
+
+def parse_scene(data: dict) -> Scene:
+    """A scene from parsed TOML data (a dict); raises ``InputError`` naming the key."""
+    top = _Table(data, "")
+    sections = {}
+    for name in ("wheel", "soil", "loading"):
+        if not top.has(name):
+            raise InputError(name, "section is required")
+        sections[name] = _Table(top.raw(name), name)
+    wheel = _wheel(sections["wheel"])
+    soil = _soil(sections["soil"])
+    loading = _loading(sections["loading"], wheel)
+    model_table = _Table(top.raw("model", {}), "model")
+    model = ModelSpec(accuracy=model_table.choice("accuracy", ACCURACIES, default="standard"))
+    model_table.done()
+    top.done()
+    return Scene(wheel, soil, loading, model)
+
+
+def load_scene(path) -> Scene:
+    """Read and validate a scene file."""
+    path = pathlib.Path(path)
+    try:
+        text = path.read_text()
+    except OSError as e:
+        raise InputError(str(path), f"cannot read the scene file ({e.strerror})") from None
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as e:
+        raise InputError(str(path), f"not valid TOML: {e}") from None
+    return parse_scene(data)

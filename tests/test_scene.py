@@ -1,0 +1,116 @@
+"""Scene files: the examples load, SI conversion, and every bad value is one line naming its key."""
+import json
+import math
+import pathlib
+
+import pytest
+
+from rollsim.cli import main
+from rollsim.scene import load_scene, parse_scene
+from rollsim.units import InputError
+
+EXAMPLES = pathlib.Path(__file__).parents[1] / "examples"
+
+BASE = {
+    "wheel": {"diameter": "60 in", "width": "18 in"},
+    "soil": {"gamma": "127 pcf", "layers": [{"model": "drucker-prager", "E": "40 MPa", "nu": 0.35,
+                                              "phi_dp": "27.5 deg", "c_dp": "194.6 kPa"}]},
+    "loading": {"protocol": "indentation", "max_sinkage": "6 in"},
+}
+
+
+def with_change(path: str, value):
+    """BASE with the dotted ``path`` set to ``value`` (None deletes)."""
+    data = json.loads(json.dumps(BASE))
+    *parents, last = path.replace("]", "").replace("[", ".").split(".")
+    node = data
+    for p in parents:
+        node = node[int(p)] if p.isdigit() else node.setdefault(p, {})
+    if value is None:
+        del node[last]
+    else:
+        node[last] = value
+    return data
+
+
+def test_examples_load():
+    scenes = {p.name: load_scene(p) for p in sorted(EXAMPLES.glob("*.toml"))}
+    assert len(scenes) >= 2
+    rolling = scenes["rolling_layered.toml"]
+    assert rolling.wheel.diameter == pytest.approx(1.524) and rolling.wheel.fillet == pytest.approx(0.4572 / 12)
+    assert rolling.soil.layers[0].thickness == pytest.approx(0.61) and rolling.soil.layers[-1].thickness is None
+    assert rolling.loading.load == 133.5e3 and rolling.model.accuracy == "fast"
+
+
+def test_si_conversion_and_defaults():
+    scene = parse_scene(BASE)
+    layer = scene.soil.layers[0]
+    assert scene.soil.gamma == pytest.approx(127 * 4.4482216152605 / 0.3048**3)
+    assert layer.phi_dp == pytest.approx(math.radians(27.5)) and layer.c_dp == 194.6e3 and layer.dilation == 0
+    assert scene.wheel.friction == 0.8 and scene.wheel.type == "rigid" and scene.model.accuracy == "standard"
+    assert scene.loading.max_sinkage == pytest.approx(0.1524)
+    assert scene.to_dict()["soil"]["layers"][0]["phi_dp"] == pytest.approx(27.5)
+
+
+@pytest.mark.parametrize("path, value, field", [
+    ("wheel.diameter", "-1 m", "wheel.diameter"),
+    ("wheel.diameter", None, "wheel.diameter"),
+    ("wheel.width", "12 kg", "wheel.width"),
+    ("wheel.fillet", "0.3 m", "wheel.fillet"),
+    ("wheel.shape", "square", "wheel.shape"),
+    ("wheel.friction", -0.1, "wheel.friction"),
+    ("wheel.colour", "red", "wheel.colour"),
+    ("soil.gamma", "abc", "soil.gamma"),
+    ("soil.layers", [], "soil.layers"),
+    ("soil.layers[0].nu", 0.5, "soil.layers[0].nu"),
+    ("soil.layers[0].E", "0 MPa", "soil.layers[0].E"),
+    ("soil.layers[0].model", "cam-clay", "soil.layers[0].model"),
+    ("soil.layers[0].c", "10 kPa", "soil.layers[0].c"),
+    ("soil.layers[0].dilation", "30 deg", "soil.layers[0].dilation"),
+    ("soil.layers[0].thickness", "1 m", "soil.layers[0].thickness"),
+    ("loading.protocol", "bouncing", "loading.protocol"),
+    ("loading.max_sinkage", "1 m", "loading.max_sinkage"),
+    ("model.accuracy", "perfect", "model.accuracy"),
+])
+def test_bad_scene_one_line_exit_2(tmp_path, capsys, path, value, field):
+    scene = tmp_path / "scene.toml"
+    scene.write_text(_to_toml(with_change(path, value)))
+    code = main(["check", str(scene)])
+    out, err = capsys.readouterr()
+    assert code == 2 and out == ""
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f"rollsim: error: {field}: ")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["scene.toml"]  # nothing written
+
+
+def test_two_layer_rules():
+    data = with_change("soil.layers", BASE["soil"]["layers"] * 2)
+    with pytest.raises(InputError) as e:  # the first layer needs a thickness, the last must not have one
+        parse_scene(data)
+    assert e.value.field == "soil.layers[0].thickness"
+
+
+def test_not_toml(tmp_path, capsys):
+    scene = tmp_path / "scene.toml"
+    scene.write_text("[wheel\n")
+    assert main(["check", str(scene)]) == 2
+    assert "not valid TOML" in capsys.readouterr().err
+
+
+def _to_toml(data: dict) -> str:
+    """Just enough TOML writing for these tests (tables, arrays of tables, scalars)."""
+    def scalar(v):
+        return json.dumps(v) if not isinstance(v, bool) else str(v).lower()
+    lines = []
+    for section, table in data.items():
+        lines.append(f"[{section}]")
+        for k, v in table.items():
+            if isinstance(v, list) and v and isinstance(v[0], dict):
+                continue
+            lines.append(f"{k} = {scalar(v) if not isinstance(v, list) else '[]'}")
+        for k, v in table.items():
+            if isinstance(v, list) and v and isinstance(v[0], dict):
+                for item in v:
+                    lines.append(f"[[{section}.{k}]]")
+                    lines.extend(f"{ik} = {scalar(iv)}" for ik, iv in item.items())
+    return "\n".join(lines) + "\n"
