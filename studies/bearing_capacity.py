@@ -290,20 +290,49 @@ def capacity_peak(wheel: Wheel, soil: Soil, opts: Options = Options()):
     return qv(s_peak), s_peak
 
 
-@dataclass
 class SinkageResult:
-    """Sinkage (m) for a load; NaN where the load exceeds the capacity peak ``max_QV`` (N)."""
+    """Sinkage (m) for a load; NaN where the load exceeds the capacity peak.
 
-    sinkage: np.ndarray
-    forces: Forces
-    exceeds_capacity: np.ndarray
-    max_QV: np.ndarray
-    sinkage_at_max: np.ndarray
+    ``max_QV`` (N) and ``sinkage_at_max`` (m) describe the peak of the Q_V(s) curve;
+    they are computed on first use where the solve did not need them.
+    """
+
+    def __init__(self, s, forces: Forces, exceeds, peak=None, curve=None):
+        self.sinkage, self.forces, self.exceeds_capacity = s, forces, exceeds
+        self._peak, self._curve = peak, curve
+
+    def _peak_values(self):
+        if self._peak is None:
+            self._peak = capacity_peak(*self._curve)
+        return self._peak
+
+    @property
+    def max_QV(self):
+        return self._peak_values()[0] + np.zeros(np.shape(self.sinkage))
+
+    @property
+    def sinkage_at_max(self):
+        return self._peak_values()[1] + np.zeros(np.shape(self.sinkage))
 
     @property
     def in_validity_range(self):
         x = self.sinkage / self.forces.d_e
         return (x >= VALIDITY_RANGE[0]) & (x <= VALIDITY_RANGE[1])
+
+
+def _first_crossing(carries, d, shape, s_end):
+    """Bracket (lo, hi, found) of the first grid sinkage below ``s_end`` where ``carries(s) >= 0``."""
+    grid = np.geomspace(1e-6, SEARCH_LIMIT, 64)
+    lo, hi = np.zeros(shape), s_end + np.zeros(shape)
+    found = np.zeros(shape, dtype=bool)
+    for x in grid:
+        s_x = x * d
+        before_end = s_x < s_end
+        above = before_end & ~found & (carries(s_x) >= 0)
+        hi = np.where(above, s_x, hi)
+        found |= above
+        lo = np.where(before_end & ~found, s_x, lo)
+    return lo, hi, found
 
 
 def sinkage(load, wheel: Wheel, soil: Soil, opts: Options = Options()) -> SinkageResult:
@@ -317,30 +346,36 @@ def sinkage(load, wheel: Wheel, soil: Soil, opts: Options = Options()) -> Sinkag
     shape = _broadcast_shape(wheel, soil, load)
     load = load + np.zeros(shape)
     d = np.asarray(wheel.diameter, dtype=float) + np.zeros(shape)
-    peak, s_peak = capacity_peak(wheel, soil, opts)
-    peak, s_peak = peak + np.zeros(shape), s_peak + np.zeros(shape)
-    exceeds = load > peak
-    # first grid point at or above the load (before the peak) brackets the root
-    grid = np.geomspace(1e-6, SEARCH_LIMIT, 64)
-    lo, hi = np.zeros(shape), s_peak.copy()
-    found = np.zeros(shape, dtype=bool)
-    for x in grid:
-        s_x = x * d
-        before_peak = s_x < s_peak
-        above = before_peak & ~found & (wheel_forces(s_x, wheel, soil, opts).QV >= load)
-        hi = np.where(above, s_x, hi)
-        found |= above
-        lo = np.where(before_peak & ~found, s_x, lo)
-    target = np.where(exceeds, np.nan, load)
+    if np.all(np.asarray(wheel.flexibility) == 0):
+        peak, s_peak = (v + np.zeros(shape) for v in capacity_peak(wheel, soil, opts))
+        exceeds = load > peak
+        target = np.where(exceeds, np.nan, load)
 
-    def residual(s):
-        return wheel_forces(s, wheel, soil, opts).QV - target
+        def residual(s):
+            return wheel_forces(s, wheel, soil, opts).QV - target
 
+        lo, hi, _ = _first_crossing(residual, d, shape, s_peak)
+        peak_values = (peak, s_peak)
+    else:
+        # For a known load the flexible wheel's diameter d_e(s, load) does not depend on
+        # the soil, and Q_V,flex(s) >= load exactly when the rigid wheel of diameter
+        # d_e(s, load) carries the load: one cheap solve instead of a nested one.
+        if opts.mode == "rolling" and opts.method != "footing":
+            raise InputError("method", "a flexible rolling wheel uses the footing method")
+
+        def residual(s):
+            rigid = Wheel(effective_diameter(s, load, wheel, opts), wheel.width, wheel.shape)
+            return wheel_forces(s, rigid, soil, opts).QV - load
+
+        lo, hi, found = _first_crossing(residual, d, shape, SEARCH_LIMIT * d)
+        exceeds = ~found
+        peak_values = None
     s = _illinois(residual, lo, hi)
     s = np.where(exceeds, np.nan, s)
-    forces = wheel_forces(np.where(exceeds, s_peak, s), wheel, soil, opts)
-    return SinkageResult(sinkage=s, forces=forces, exceeds_capacity=exceeds,
-                         max_QV=peak, sinkage_at_max=s_peak)
+    result = SinkageResult(s, None, exceeds, peak_values, (wheel, soil, opts))
+    result.forces = wheel_forces(np.where(exceeds, result.sinkage_at_max if np.any(exceeds) else 0.0, s),
+                                 wheel, soil, opts)
+    return result
 
 
 # ------------------------------------------------------------------------- inverses

@@ -264,3 +264,13 @@ def test_vectorised_broadcasting():
     r = bc.sinkage(loads, MNDOT, Soil(c, 0.0, 20e3))
     assert r.sinkage.shape == (5, 2)
     assert np.all(np.diff(r.sinkage, axis=0) > 0) and np.all(r.sinkage[:, 0] > r.sinkage[:, 1])
+
+
+def test_flexible_wheel_exceeds_capacity_consistently():
+    wheel = Wheel(1.524, 0.4572, flexibility=1e-5)
+    sand = Soil(0.0, math.radians(35), 20e3)
+    peak = float(bc.capacity_peak(wheel, sand)[0])
+    r = bc.sinkage([0.98 * peak, 1.02 * peak], wheel, sand)
+    assert list(r.exceeds_capacity) == [False, True]
+    assert float(r.forces.QV[0]) == pytest.approx(0.98 * peak, rel=1e-9)
+    assert float(r.max_QV[1]) == pytest.approx(peak, rel=1e-12)
