@@ -188,8 +188,11 @@ def _illinois(f, lo, hi, flo=None, fhi=None, rtol=1e-14, maxiter=200):
     return x
 
 
-def _implicit_rolling_force(s, wheel: Wheel, soil: Soil, opts: Options):
-    """(Q, beta, d_e) of a flexible rolling wheel: Q = F(s, d + lambda Q), solved by bracketing."""
+def _implicit_force(s, wheel: Wheel, soil: Soil, opts: Options):
+    """(Q, beta, d_e) of a flexible wheel: Q = F(s, d + lambda Q), solved by bracketing.
+
+    Q is the formula's force: Q_V for indentation, the inclined total force for rolling.
+    """
     d, b, lam = wheel.diameter, wheel.width, wheel.flexibility
     q0, _ = _formula_force(s, d, b, wheel.shape, soil, opts)
 
@@ -204,7 +207,7 @@ def _implicit_rolling_force(s, wheel: Wheel, soil: Soil, opts: Options):
         hi = np.where(ghi > 0, 2.0 * hi, hi)
     q = np.where(q0 > 0, _illinois(g, np.zeros_like(hi), hi, flo=q0, fhi=ghi), 0.0)
     d_e = d + lam * q
-    return q, np.sqrt(s / d_e), d_e
+    return q, _formula_force(s, d_e, b, wheel.shape, soil, opts)[1], d_e
 
 
 @dataclass
@@ -222,32 +225,13 @@ def wheel_forces(s, wheel: Wheel, soil: Soil, opts: Options = Options()) -> Forc
     """Forces on the wheel at sinkage ``s`` (m), any case of the model."""
     s = np.asarray(s, dtype=float)
     d, lam = np.asarray(wheel.diameter, dtype=float), np.asarray(wheel.flexibility, dtype=float)
-    rigid = np.all(lam == 0)
-    if opts.mode == "indentation":
-        q, beta = _formula_force(s, d, wheel.width, wheel.shape, soil, opts)
-        d_e = d + 0 * q
-        if not rigid:  # Q_V = F(s, d + lambda Q_V)
-            q0 = q
-
-            def g(qv):
-                return _formula_force(s, d + lam * qv, wheel.width, wheel.shape, soil, opts)[0] - qv
-
-            hi = 2.0 * q0 + 1.0
-            for _ in range(200):
-                ghi = g(hi)
-                if np.all(ghi <= 0):
-                    break
-                hi = np.where(ghi > 0, 2.0 * hi, hi)
-            q = np.where(q0 > 0, _illinois(g, np.zeros_like(hi), hi, flo=q0, fhi=ghi), 0.0)
-            d_e = d + lam * q
-        return Forces(QV=q, QH=np.zeros_like(q), Q=q, beta=beta, d_e=d_e)
-    if rigid:
+    if np.all(lam == 0):
         q, beta = _formula_force(s, d, wheel.width, wheel.shape, soil, opts)
         d_e = d + 0 * q
     else:
-        if opts.method != "footing":
+        if opts.mode == "rolling" and opts.method != "footing":
             raise InputError("method", "a flexible rolling wheel uses the footing method")
-        q, beta, d_e = _implicit_rolling_force(s, wheel, soil, opts)
+        q, beta, d_e = _implicit_force(s, wheel, soil, opts)
     return Forces(QV=q * np.cos(beta), QH=q * np.sin(beta), Q=q, beta=beta, d_e=d_e)
 
 
