@@ -71,3 +71,13 @@ def evaluate_into(expr, target: fem.Function) -> None:
 def xdmf_file(comm: MPI.Comm, path, mode: str = "w"):
     """XDMF writer (no ADIOS2 in the Debian build)."""
     return io.XDMFFile(comm, str(path), mode)
+
+
+def write_tagged_mesh(comm: MPI.Comm, path, mesh, cell_tags, facet_tags) -> None:
+    """Write ``mesh`` with its cell and facet tags to one XDMF file (tags named as their ``name``)."""
+    tdim = mesh.topology.dim
+    mesh.topology.create_connectivity(tdim - 1, tdim)
+    with io.XDMFFile(comm, str(path), "w") as xdmf:
+        xdmf.write_mesh(mesh)
+        xdmf.write_meshtags(cell_tags)
+        xdmf.write_meshtags(facet_tags)

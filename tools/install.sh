@@ -14,6 +14,7 @@ apt_packages=(
   python3-dolfinx-real python3-petsc4py-real python3-mpi4py python3-gmsh
   openmpi-bin python3-numpy python3-scipy python3-matplotlib python3-pint
   python3-pytest python3-venv python3-pip python3-wheel
+  libegl1 libegl-mesa0 libgl1-mesa-dri   # off-screen rendering (VTK via EGL, llvmpipe)
 )
 
 missing=()
