@@ -1,1 +1,34 @@
-"""rollsim.solver (under construction)."""
+"""rollsim.solver: elastoplastic soil constitutive core and nonlinear (SNES Newton) solver.
+
+Public API::
+
+    from rollsim.solver import (VonMises, DruckerPrager, mc_to_dp, dp_to_mc, von_mises_from_tresca,
+                                return_map, PlasticityProblem, StepControl, solve_load_path,
+                                SolverDivergedError, StripFooting, strip_footing_mesh, prandtl_nc)
+
+DOLFINx-dependent parts are imported lazily so that the constitutive code (numpy only) can be
+used without DOLFINx.
+"""
+from .materials import VonMises, DruckerPrager, mc_to_dp, dp_to_mc, von_mises_from_tresca  # noqa: F401
+from .return_map import (return_map, ReturnResult, elastic_stiffness, yield_function,  # noqa: F401
+                         invariants, ELASTIC, PLASTIC, APEX)
+
+_LAZY = {
+    "PlasticityProblem": "problem", "NewtonReport": "problem", "mandel_strain": "problem",
+    "StepControl": "stepping", "StepRecord": "stepping", "ConvergedState": "stepping",
+    "SolverDivergedError": "stepping", "solve_load_path": "stepping",
+    "StripFooting": "footing", "FootingResult": "footing", "strip_footing_mesh": "footing",
+    "prandtl_nc": "footing",
+}
+
+
+def __getattr__(name):
+    if name in _LAZY:
+        import importlib
+        return getattr(importlib.import_module(f".{_LAZY[name]}", __name__), name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+__all__ = ["VonMises", "DruckerPrager", "mc_to_dp", "dp_to_mc", "von_mises_from_tresca", "return_map",
+           "ReturnResult", "elastic_stiffness", "yield_function", "invariants", "ELASTIC", "PLASTIC",
+           "APEX", *_LAZY]

@@ -1,0 +1,196 @@
+"""Soil materials: isotropic linear elasticity + perfect plasticity (SI units, angles in radians).
+
+Sign convention: stresses tension-positive (as in the FE code); the yield functions use the
+*compression-positive* mean pressure ``p = -tr(sigma)/3`` and the von Mises equivalent stress
+``q = sqrt(3/2 s:s)``.  Drucker-Prager::
+
+    f(sigma) = q - p tan(phi_dp) - c_dp <= 0           (yield surface, a cone; apex p = -c_dp/tan(phi_dp))
+    g(sigma) = q - p tan(psi_dp)                          (plastic potential; psi_dp = phi_dp is associated)
+
+von Mises is the same code with ``tan(phi_dp) = tan(psi_dp) = 0`` and ``c_dp = yield_stress``.
+
+Mohr-Coulomb (c, phi) -> Drucker-Prager (c_dp, phi_dp) matchings
+-----------------------------------------------------------------
+* triaxial compression (outer cone, through the compressive meridian)::
+
+      tan(phi_dp) = 6 sin(phi) / (3 - sin(phi)),   c_dp = 6 c cos(phi) / (3 - sin(phi))
+
+* triaxial extension (inner cone): the same with ``3 + sin(phi)``.
+* plane strain, associated flow (Drucker & Prager 1952).  Derivation: let the in-plane principal
+  stresses be ``sigma_1, sigma_3`` with centre ``m = (sigma_1 + sigma_3)/2`` (tension positive) and
+  radius ``t = (sigma_1 - sigma_3)/2``, and ``sigma_zz = m + d``.  Then ``q^2 = 3 t^2 + d^2`` and
+  ``p = -m - d/3``.  Plane strain with associated flow needs ``d eps_zz^p ∝ df/dsigma_zz =
+  d/q + T/3 = 0`` (``T = tan(phi_dp)``), i.e. ``d = -q T / 3``.  Hence ``q^2 (1 - T^2/9) = 3 t^2``
+  and ``f = 0`` gives ``q (1 - T^2/9) = c_dp - T m``; eliminating ``q``::
+
+      t = (c_dp - T m) / sqrt(3 - T^2/3)
+
+  which is Mohr-Coulomb ``t = c cos(phi) - m sin(phi)`` if and only if::
+
+      tan(phi_dp) = 3 sin(phi) / sqrt(3 + sin(phi)^2),   c_dp = 3 c cos(phi) / sqrt(3 + sin(phi)^2)
+
+  (equivalently ``alpha = tan(phi)/sqrt(9 + 12 tan^2 phi)``, ``k = 3c/sqrt(9 + 12 tan^2 phi)`` in
+  ``alpha I1 + sqrt(J2) = k``).  ``phi = 0`` gives ``c_dp = sqrt(3) c``: von Mises with
+  ``q = sqrt(3) c``, the plane-strain match of Tresca.  For the dilation angle the same map is used
+  on ``psi`` (``psi_dp``); this is exact only for the associated case.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+__all__ = ["VonMises", "DruckerPrager", "mc_to_dp", "dp_to_mc", "von_mises_from_tresca"]
+
+MATCHINGS = ("compression", "extension", "plane_strain")
+
+
+def _check_elastic(E: float, nu: float) -> None:
+    if not (isinstance(E, (int, float)) and math.isfinite(E) and E > 0):
+        raise ValueError(f"E must be a positive finite number (Pa), got {E!r}")
+    if not (isinstance(nu, (int, float)) and -1.0 < nu < 0.5):
+        raise ValueError(f"nu must lie in (-1, 0.5), got {nu!r}")
+
+
+@dataclass(frozen=True)
+class _Elastic:
+    E: float
+    nu: float
+
+    @property
+    def shear_modulus(self) -> float:
+        return self.E / (2.0 * (1.0 + self.nu))
+
+    @property
+    def bulk_modulus(self) -> float:
+        return self.E / (3.0 * (1.0 - 2.0 * self.nu))
+
+    @property
+    def lame_lambda(self) -> float:
+        return self.E * self.nu / ((1.0 + self.nu) * (1.0 - 2.0 * self.nu))
+
+
+@dataclass(frozen=True)
+class VonMises(_Elastic):
+    """Elastic-perfectly plastic von Mises: ``q <= yield_stress`` (Pa).
+
+    For plane-strain Tresca cohesion ``c`` use ``yield_stress = sqrt(3) c``
+    (:func:`von_mises_from_tresca`).
+    """
+
+    yield_stress: float
+
+    def __post_init__(self):
+        _check_elastic(self.E, self.nu)
+        if not (isinstance(self.yield_stress, (int, float)) and math.isfinite(self.yield_stress)
+                and self.yield_stress > 0):
+            raise ValueError(f"yield_stress must be a positive finite number (Pa), got {self.yield_stress!r}")
+
+    # unified Drucker-Prager parameters used by the return map
+    @property
+    def tan_phi(self) -> float:
+        return 0.0
+
+    @property
+    def tan_psi(self) -> float:
+        return 0.0
+
+    @property
+    def cohesion(self) -> float:
+        return float(self.yield_stress)
+
+
+@dataclass(frozen=True)
+class DruckerPrager(_Elastic):
+    """Elastic-perfectly plastic Drucker-Prager cone ``q - p tan(phi_dp) = c_dp``.
+
+    ``phi_dp`` and ``dilation`` (= ``psi_dp``, angle of the potential ``q - p tan(psi_dp)``) in
+    radians, ``c_dp`` in Pa (``c_dp = 0``: purely frictional, cone apex at the origin).
+    ``dilation = 0`` (default) is isochoric flow on the smooth part; ``dilation = phi_dp`` is
+    associated.  Build from Mohr-Coulomb parameters with :meth:`from_mohr_coulomb`.
+    """
+
+    phi_dp: float
+    c_dp: float
+    dilation: float = 0.0
+
+    def __post_init__(self):
+        _check_elastic(self.E, self.nu)
+        if not (isinstance(self.phi_dp, (int, float)) and 0.0 <= self.phi_dp < math.pi / 2):
+            raise ValueError(f"phi_dp must be an angle in [0, pi/2) radians, got {self.phi_dp!r}")
+        if not (isinstance(self.c_dp, (int, float)) and math.isfinite(self.c_dp) and self.c_dp >= 0):
+            raise ValueError(f"c_dp must be a finite number >= 0 (Pa), got {self.c_dp!r}")
+        if not (isinstance(self.dilation, (int, float)) and 0.0 <= self.dilation <= self.phi_dp + 1e-15):
+            raise ValueError(f"dilation must be an angle in [0, phi_dp] radians, got {self.dilation!r}")
+        if self.c_dp == 0 and self.phi_dp == 0:
+            raise ValueError("c_dp and phi_dp are both zero: no strength (c_dp must be > 0 when phi_dp = 0)")
+
+    @property
+    def tan_phi(self) -> float:
+        return math.tan(self.phi_dp)
+
+    @property
+    def tan_psi(self) -> float:
+        return math.tan(self.dilation)
+
+    @property
+    def cohesion(self) -> float:
+        return float(self.c_dp)
+
+    @classmethod
+    def from_mohr_coulomb(cls, E: float, nu: float, c: float, phi: float, psi: float | None = 0.0,
+                          matching: str = "compression") -> "DruckerPrager":
+        """Drucker-Prager matched to Mohr-Coulomb (c [Pa], phi, psi [rad]); ``psi=None`` -> associated."""
+        phi_dp, c_dp = mc_to_dp(c, phi, matching)
+        if psi is None:
+            psi_dp = phi_dp
+        else:
+            psi_dp, _ = mc_to_dp(0.0, psi, matching)
+        return cls(E=E, nu=nu, phi_dp=phi_dp, c_dp=c_dp, dilation=min(psi_dp, phi_dp))
+
+
+def mc_to_dp(c: float, phi: float, matching: str = "compression") -> tuple[float, float]:
+    """Mohr-Coulomb (c [Pa], phi [rad]) -> Drucker-Prager (phi_dp [rad], c_dp [Pa])."""
+    if matching not in MATCHINGS:
+        raise ValueError(f"matching must be one of {MATCHINGS}, got {matching!r}")
+    if not 0.0 <= phi < math.pi / 2:
+        raise ValueError(f"phi must be in [0, pi/2) radians, got {phi!r}")
+    if c < 0:
+        raise ValueError(f"c must be >= 0, got {c!r}")
+    s, co = math.sin(phi), math.cos(phi)
+    if matching == "compression":
+        return math.atan(6 * s / (3 - s)), 6 * c * co / (3 - s)
+    if matching == "extension":
+        return math.atan(6 * s / (3 + s)), 6 * c * co / (3 + s)
+    r = math.sqrt(3 + s * s)
+    return math.atan(3 * s / r), 3 * c * co / r
+
+
+def dp_to_mc(phi_dp: float, c_dp: float, matching: str = "compression") -> tuple[float, float]:
+    """Inverse of :func:`mc_to_dp`: (phi_dp [rad], c_dp [Pa]) -> (c [Pa], phi [rad])."""
+    if matching not in MATCHINGS:
+        raise ValueError(f"matching must be one of {MATCHINGS}, got {matching!r}")
+    T = math.tan(phi_dp)
+    if matching == "compression":
+        s = 3 * T / (6 + T)           # T (3 - s) = 6 s
+        if s >= 1:
+            raise ValueError(f"phi_dp = {phi_dp} has no compression-matched Mohr-Coulomb angle")
+        phi = math.asin(s)
+        c = c_dp * (3 - s) / (6 * math.cos(phi))
+    elif matching == "extension":
+        s = 3 * T / (6 - T)
+        if not 0 <= s < 1:
+            raise ValueError(f"phi_dp = {phi_dp} has no extension-matched Mohr-Coulomb angle")
+        phi = math.asin(s)
+        c = c_dp * (3 + s) / (6 * math.cos(phi))
+    else:
+        if T >= math.sqrt(3):
+            raise ValueError(f"phi_dp = {phi_dp} has no plane-strain-matched Mohr-Coulomb angle")
+        s = math.sqrt(3 * T * T / (9 - T * T))
+        phi = math.asin(s)
+        c = c_dp * math.sqrt(3 + s * s) / (3 * math.cos(phi))
+    return c, phi
+
+
+def von_mises_from_tresca(E: float, nu: float, c: float) -> VonMises:
+    """Plane-strain match of a Tresca material with cohesion (undrained strength) ``c``."""
+    return VonMises(E=E, nu=nu, yield_stress=math.sqrt(3.0) * c)

@@ -1,0 +1,401 @@
+"""Small-strain elastoplastic boundary-value problem driven by PETSc SNES (DOLFINx 0.5).
+
+Pattern (generalises to 3D, contact and load control):
+
+* unknown: displacement ``u`` (continuous Lagrange, degree 2 by default: P2 triangles/tets do
+  not lock under isochoric plastic flow the way P1 does);
+* history at quadrature points in quadrature-space Functions: converged stress ``sigma_n``,
+  plastic strain ``eps_p``; the current stress ``sigma`` and consistent tangent ``tangent``
+  (flattened ``ncomp x ncomp``) are refreshed from the numpy return map at every residual
+  evaluation; history is committed only after a step has converged;
+* residual ``F(u; v) = int sigma(u) : eps(v) - int b . v + sum(extra residual terms)``,
+  Jacobian ``J = int (C_t : eps(du)) : eps(v) + sum(extra Jacobian terms)``; Mandel vectors so
+  ``:`` is a dot product;
+* SNES Newton (line search selectable) with LU (MUMPS) by default; any PETSc option can be
+  passed (``petsc_options`` dict, applied under ``options_prefix``).
+
+Extension points (designed, not yet used): :meth:`PlasticityProblem.add_residual_term` adds a
+UFL residual term and its Gateaux derivative (rigid-wheel penalty/Nitsche contact is such a
+term, with the wheel position in a ``fem.Constant``); load control (force given) fits the
+stepper unchanged by making the load parameter a Neumann traction or by adding the rigid-body
+displacement as a global unknown (a Lagrange multiplier row) - see ``solver/README_SECTION.md``.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Sequence
+
+import numpy as np
+import ufl
+from dolfinx import fem
+from dolfinx.fem import petsc as fpetsc
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from rollsim import compat
+from rollsim.log import get_logger
+
+from .return_map import return_map, elastic_stiffness, yield_function, ELASTIC, PLASTIC, APEX
+
+__all__ = ["NewtonReport", "PlasticityProblem", "mandel_strain", "DEFAULT_PETSC_OPTIONS"]
+
+log = get_logger("solver")
+
+DEFAULT_PETSC_OPTIONS = {
+    "snes_type": "newtonls",
+    "snes_linesearch_type": "basic",   # full Newton steps; "bt" for backtracking
+    "snes_max_it": 25,
+    "snes_rtol": 1e-9,
+    "snes_atol": 1e-30,
+    "snes_stol": 0.0,
+    "ksp_type": "preonly",
+    "pc_type": "lu",
+    "pc_factor_mat_solver_type": "mumps",
+}
+
+_SQ2 = np.sqrt(2.0)
+
+
+def mandel_strain(u, gdim: int):
+    """Small strain of ``u`` as a UFL Mandel vector (4 components in 2D plane strain, 6 in 3D)."""
+    e = ufl.sym(ufl.grad(u))
+    if gdim == 2:
+        return ufl.as_vector([e[0, 0], e[1, 1], 0.0 * e[0, 0], _SQ2 * e[0, 1]])
+    if gdim == 3:
+        return ufl.as_vector([e[0, 0], e[1, 1], e[2, 2], _SQ2 * e[0, 1], _SQ2 * e[1, 2], _SQ2 * e[0, 2]])
+    raise ValueError(f"gdim must be 2 or 3, got {gdim}")
+
+
+@dataclass
+class NewtonReport:
+    converged: bool
+    iterations: int
+    reason: int
+    residual_norms: list[float] = field(default_factory=list)
+    time: float = 0.0
+    counts: dict = field(default_factory=dict)   # global elastic/plastic/apex quadrature points
+
+
+class PlasticityProblem:
+    """Elastoplastic solid on ``mesh`` (2D plane strain or 3D) with a numpy return map.
+
+    Parameters
+    ----------
+    mesh : dolfinx mesh (its communicator is used throughout)
+    material : ``VonMises`` or ``DruckerPrager``
+    bcs : Dirichlet conditions on ``self.V`` (may be set later via :attr:`bcs`; build them with
+        ``problem.V``)
+    degree : displacement degree (2 recommended)
+    quadrature_degree : default ``2 * (degree - 1)`` (exact for the P2 stiffness on affine cells)
+    body_force : UFL vector (N/m^3), multiplied by :attr:`gravity_factor` (a ``fem.Constant``)
+    petsc_options : dict overriding :data:`DEFAULT_PETSC_OPTIONS`
+    force_rtol : Newton also converges when ``|F| <= force_rtol * |F_internal|`` (the norm of the
+        unconstrained internal-force vector, i.e. of the reactions at equilibrium) - a
+        units-consistent absolute floor.
+    """
+
+    def __init__(self, mesh, material, bcs: Sequence = (), *, degree: int = 2,
+                 quadrature_degree: int | None = None, body_force=None,
+                 petsc_options: dict | None = None, options_prefix: str = "rollsim_plasticity_",
+                 force_rtol: float = 1e-10):
+        self.mesh = mesh
+        self.comm = mesh.comm
+        self.material = material
+        self.gdim = mesh.geometry.dim
+        self.ncomp = 4 if self.gdim == 2 else 6
+        self.degree = degree
+        self.qdeg = quadrature_degree if quadrature_degree is not None else max(2 * (degree - 1), 1)
+        self.V = compat.vector_space(mesh, degree)
+        self.bcs = list(bcs)
+        self.force_rtol = force_rtol
+        self.divergence_factor = 1e4
+
+        nc = self.ncomp
+        self.Qs = compat.quadrature_space(mesh, self.qdeg, (nc,))
+        self.Qt = compat.quadrature_space(mesh, self.qdeg, (nc * nc,))
+        self.u = fem.Function(self.V, name="displacement")
+        self.u_n = fem.Function(self.V, name="displacement_converged")
+        self.sigma = fem.Function(self.Qs, name="stress")
+        self.sigma_n = fem.Function(self.Qs, name="stress_converged")
+        self.eps_p = fem.Function(self.Qs, name="plastic_strain")
+        self.tangent = fem.Function(self.Qt, name="tangent")
+        self._deps_q = fem.Function(self.Qs)
+        self._deps_p = np.zeros((0, nc))
+        self.state = np.zeros(0, dtype=np.int8)
+
+        tdim = mesh.topology.dim
+        self.n_cells = mesh.topology.index_map(tdim).size_local
+        self.points = compat.quadrature_points(mesh, self.qdeg)
+        self.n_qp = self.n_cells * self.points.shape[0]      # owned quadrature points
+        self._deps_expr = compat.expression(
+            mandel_strain(self.u, self.gdim) - mandel_strain(self.u_n, self.gdim), self.points)
+
+        D = elastic_stiffness(material, nc)
+        self._set_owned(self.tangent, np.broadcast_to(D.reshape(-1), (self.n_qp, nc * nc)))
+
+        self.dx = ufl.Measure("dx", domain=mesh, metadata={"quadrature_degree": self.qdeg,
+                                                            "quadrature_scheme": "default"})
+        v = ufl.TestFunction(self.V)
+        du = ufl.TrialFunction(self.V)
+        self._v, self._du = v, du
+        self.gravity_factor = fem.Constant(mesh, PETSc.ScalarType(1.0))
+        zero = ufl.as_vector([0.0] * self.gdim)
+        self.body_force = body_force if body_force is not None else zero
+        Ct = ufl.as_matrix([[self.tangent[i * nc + j] for j in range(nc)] for i in range(nc)])
+        self._F_terms = [ufl.inner(self.sigma, mandel_strain(v, self.gdim)) * self.dx
+                         - self.gravity_factor * ufl.inner(self.body_force, v) * self.dx]
+        self._J_terms = [ufl.inner(ufl.dot(Ct, mandel_strain(du, self.gdim)), mandel_strain(v, self.gdim)) * self.dx]
+        self._compiled = False
+        self._internal_force_forms: dict = {}
+
+        self.options_prefix = options_prefix
+        self.petsc_options = dict(DEFAULT_PETSC_OPTIONS)
+        self.petsc_options.update(petsc_options or {})
+        self.timings = {"residual": 0.0, "jacobian": 0.0, "return_map": 0.0, "snes": 0.0, "iterations": 0}
+        self._force_scale = 0.0
+        self._history: list[float] = []
+
+    # ------------------------------------------------------------------ helpers
+    def _set_owned(self, f: fem.Function, values: np.ndarray) -> None:
+        n = values.size
+        f.x.array[:n] = values.reshape(-1)
+        f.x.scatter_forward()
+
+    def _owned(self, f: fem.Function, width: int) -> np.ndarray:
+        return f.x.array[: self.n_qp * width].reshape(self.n_qp, width)
+
+    def add_residual_term(self, F_term, J_term=None) -> None:
+        """Add a UFL residual term (test function :attr:`test_function`) and its derivative.
+
+        ``J_term`` defaults to ``ufl.derivative(F_term, u, trial_function)``.  Call before the
+        first solve (forms are compiled once).  Intended for contact (penalty/Nitsche) terms.
+        """
+        if self._compiled:
+            raise RuntimeError("add_residual_term must be called before the first solve")
+        self._F_terms.append(F_term)
+        self._J_terms.append(J_term if J_term is not None else ufl.derivative(F_term, self.u, self._du))
+
+    @property
+    def test_function(self):
+        return self._v
+
+    @property
+    def trial_function(self):
+        return self._du
+
+    def set_initial_stress(self, stress_ufl) -> None:
+        """Set the converged (and current) stress from a UFL Mandel vector, e.g. geostatic."""
+        expr = compat.expression(stress_ufl, self.points)
+        compat.evaluate_into(expr, self.sigma_n)
+        self.sigma.x.array[:] = self.sigma_n.x.array
+
+    def set_geostatic_stress(self, unit_weight: float, surface: float, K0: float | None = None) -> None:
+        """Geostatic initial stress for a soil with unit weight ``gamma`` (N/m^3) and free surface at
+        ``x[gdim-1] = surface``: sigma_v = -gamma (surface - z), sigma_h = K0 sigma_v,
+        K0 = nu/(1-nu) by default.  Use with ``body_force = (0, .., -gamma)``."""
+        nu = self.material.nu
+        K0 = nu / (1.0 - nu) if K0 is None else K0
+        x = ufl.SpatialCoordinate(self.mesh)
+        sv = -unit_weight * (surface - x[self.gdim - 1])
+        comps = [K0 * sv] * 3
+        comps[self.gdim - 1] = sv
+        comps += [0.0 * sv] * (self.ncomp - 3)
+        self.set_initial_stress(ufl.as_vector(comps))
+        sig = self._owned(self.sigma_n, self.ncomp)
+        f = yield_function(self.material, sig)
+        nviol = self.comm.allreduce(int(np.sum(f > 1e-8 * (abs(self.material.cohesion) + np.abs(sig).max(initial=1.0)))))
+        if nviol:
+            log.warning("geostatic stress violates the yield condition at %d quadrature points", nviol)
+
+    # ------------------------------------------------------------------ constitutive update
+    def constitutive_update(self, tangent: bool = True):
+        """Strain increment at the quadrature points of ``u - u_n`` -> stress (and tangent)."""
+        t0 = time.perf_counter()
+        compat.evaluate_into(self._deps_expr, self._deps_q)
+        nc = self.ncomp
+        res = return_map(self.material, self._owned(self.sigma_n, nc), self._owned(self._deps_q, nc),
+                         tangent=tangent)
+        self._set_owned(self.sigma, res.sigma)
+        if tangent:
+            self._set_owned(self.tangent, res.tangent.reshape(self.n_qp, nc * nc))
+        self._deps_p = res.deps_p
+        self.state = res.state
+        self.timings["return_map"] += time.perf_counter() - t0
+        return res
+
+    def counts(self) -> dict[str, int]:
+        """Global numbers of elastic / plastic / apex quadrature points of the current state."""
+        loc = np.array([np.sum(self.state == s) for s in (ELASTIC, PLASTIC, APEX)], dtype=np.int64)
+        glob = np.zeros_like(loc)
+        self.comm.Allreduce(loc, glob)
+        return dict(zip(("elastic", "plastic", "apex"), map(int, glob)))
+
+    # ------------------------------------------------------------------ SNES plumbing
+    def _compile(self) -> None:
+        if self._compiled:
+            return
+        self._F_form = fem.form(sum(self._F_terms[1:], self._F_terms[0]))
+        self._J_form = fem.form(sum(self._J_terms[1:], self._J_terms[0]))
+        self._b = fpetsc.create_vector(self._F_form)
+        self._A = fpetsc.create_matrix(self._J_form)
+        self._x = self.u.vector.copy()
+        self._x_last = self.u.vector.copy()
+        snes = PETSc.SNES().create(self.comm)
+        snes.setOptionsPrefix(self.options_prefix)
+        opts = PETSc.Options()
+        for k, val in self.petsc_options.items():
+            opts[self.options_prefix + k] = val
+        snes.setFunction(self._snes_F, self._b)
+        snes.setJacobian(self._snes_J, self._A)
+        snes.setConvergenceTest(self._snes_converged)
+        snes.setFromOptions()
+        snes.getKSP().setFromOptions()
+        self.snes = snes
+        self._compiled = True
+
+    def _load_x(self, x) -> None:
+        x.copy(self.u.vector)
+        self.u.x.scatter_forward()
+
+    def _snes_F(self, snes, x, b) -> None:
+        t0 = time.perf_counter()
+        x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        self._load_x(x)
+        self.constitutive_update(tangent=True)
+        x.copy(self._x_last)
+        with b.localForm() as b_local:
+            b_local.set(0.0)
+        fpetsc.assemble_vector(b, self._F_form)
+        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        self._force_scale = b.norm()      # includes the reactions: units-consistent floor
+        with b.localForm() as b_local:       # ghosts were added to their owners: clear them
+            b_local.array[b.getLocalSize():] = 0.0
+        fpetsc.apply_lifting(b, [self._J_form], [self.bcs], x0=[x], scale=-1.0)
+        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        fpetsc.set_bc(b, self.bcs, x, -1.0)
+        self.timings["residual"] += time.perf_counter() - t0
+
+    def _snes_J(self, snes, x, A, P) -> None:
+        t0 = time.perf_counter()
+        if not x.equal(self._x_last):      # the tangent must belong to this x
+            x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+            self._load_x(x)
+            self.constitutive_update(tangent=True)
+            x.copy(self._x_last)
+        A.zeroEntries()
+        fpetsc.assemble_matrix(A, self._J_form, self.bcs)
+        A.assemble()
+        self.timings["jacobian"] += time.perf_counter() - t0
+
+    def _snes_converged(self, snes, it, norms):
+        xnorm, gnorm, fnorm = norms
+        self._history.append(float(fnorm))
+        rtol, atol, stol, max_it = snes.getTolerances()
+        if not np.isfinite(fnorm):
+            return PETSc.SNES.ConvergedReason.DIVERGED_FNORM_NAN
+        if it == 0:
+            self._fnorm0 = fnorm
+            if fnorm <= atol:
+                return PETSc.SNES.ConvergedReason.CONVERGED_FNORM_ABS
+            return PETSc.SNES.ConvergedReason.ITERATING
+        if fnorm <= atol or fnorm <= self.force_rtol * self._force_scale:
+            return PETSc.SNES.ConvergedReason.CONVERGED_FNORM_ABS
+        if fnorm <= rtol * self._fnorm0:
+            return PETSc.SNES.ConvergedReason.CONVERGED_FNORM_RELATIVE
+        if fnorm > self.divergence_factor * self._fnorm0:      # fail fast, the stepper cuts
+            return PETSc.SNES.ConvergedReason.DIVERGED_DTOL
+        if it >= max_it:
+            return PETSc.SNES.ConvergedReason.DIVERGED_MAX_IT
+        return PETSc.SNES.ConvergedReason.ITERATING
+
+    # ------------------------------------------------------------------ public stepping API
+    def solve_increment(self) -> NewtonReport:
+        """Newton solve from the last converged state for the current boundary data.
+
+        Does not commit: call :meth:`commit` (accept) or :meth:`restore` (reject) afterwards.
+        """
+        self._compile()
+        self._history = []
+        t0 = time.perf_counter()
+        self.u.vector.copy(self._x)
+        try:
+            self.snes.solve(None, self._x)
+            reason = self.snes.getConvergedReason()
+        except PETSc.Error as err:        # e.g. a zero pivot in the factorisation
+            log.warning("SNES raised %s", err)
+            reason = -100
+        its = self.snes.getIterationNumber()
+        dt = time.perf_counter() - t0
+        self.timings["snes"] += dt
+        self.timings["iterations"] += its
+        converged = reason > 0
+        if converged:
+            self._x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+            self._load_x(self._x)
+            self.constitutive_update(tangent=False)   # stress of the accepted iterate
+        return NewtonReport(converged=converged, iterations=its, reason=int(reason),
+                            residual_norms=list(self._history), time=dt,
+                            counts=self.counts() if converged else {})
+
+    def commit(self) -> None:
+        """Accept the current state as converged (update history variables)."""
+        nc = self.ncomp
+        self.sigma_n.x.array[:] = self.sigma.x.array
+        ep = self._owned(self.eps_p, nc) + self._deps_p
+        self._set_owned(self.eps_p, ep)
+        self.u_n.x.array[:] = self.u.x.array
+
+    def restore(self) -> None:
+        """Reject the current iterate: back to the last converged state."""
+        self.u.x.array[:] = self.u_n.x.array
+        self.sigma.x.array[:] = self.sigma_n.x.array
+        self.state = np.zeros(self.n_qp, dtype=np.int8)
+
+    def reset_displacement(self) -> None:
+        """Zero the displacement (e.g. after a gravity step) keeping stresses and plastic strains."""
+        self.u.x.array[:] = 0.0
+        self.u_n.x.array[:] = 0.0
+
+    def internal_force(self, w: fem.Function) -> float:
+        """Global ``int sigma : eps(w) - b . w`` at the current stress: for ``w`` = 1 on a set of
+        dofs (one direction) and 0 elsewhere this is the resultant reaction there (partition
+        independent: an assembled global scalar)."""
+        key = id(w)
+        if key not in self._internal_force_forms:
+            wf = ufl.replace(self._F_terms[0], {self._v: w})
+            self._internal_force_forms[key] = (w, fem.form(wf))
+        val = fem.assemble_scalar(self._internal_force_forms[key][1])
+        return float(self.comm.allreduce(val))
+
+    def elastic_solve_time(self, repeat: int = 3) -> float:
+        """Wall time of one linear elastic solve (assemble the elastic stiffness, numeric LU factorisation, solve;
+        the symbolic factorisation is reused, as in Newton),
+        the reference for the cost of a plastic Newton iteration (best of ``repeat``)."""
+        self._compile()
+        nc = self.ncomp
+        saved = self.tangent.x.array.copy()
+        D = elastic_stiffness(self.material, nc)
+        self._set_owned(self.tangent, np.broadcast_to(D.reshape(-1), (self.n_qp, nc * nc)))
+        b = fpetsc.create_vector(self._F_form)
+        b.set(1.0)
+        fpetsc.set_bc(b, self.bcs)
+        y = b.duplicate()
+        ksp = PETSc.KSP().create(self.comm)
+        ksp.setType("preonly")
+        ksp.getPC().setType("lu")
+        ksp.getPC().setFactorSolverType("mumps")
+        best = np.inf
+        for _ in range(repeat + 1):              # the first pass (symbolic factorisation) is warm-up
+            t0 = time.perf_counter()
+            self._A.zeroEntries()
+            fpetsc.assemble_matrix(self._A, self._J_form, self.bcs)
+            self._A.assemble()
+            ksp.setOperators(self._A)
+            ksp.solve(b, y)
+            if _:
+                best = min(best, time.perf_counter() - t0)
+        dt = self.comm.allreduce(best, op=MPI.MAX)
+        ksp.destroy(); b.destroy(); y.destroy()
+        self.tangent.x.array[:] = saved
+        return dt
