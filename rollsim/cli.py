@@ -129,6 +129,19 @@ def build_parser() -> argparse.ArgumentParser:
                                    "(angles in degrees). " + UNITS_HELP)
     p.add_argument("scene", help="scene file (TOML)")
 
+    p = sub.add_parser("study", parents=[common], help="run a sweep of scenes (resumes when re-run)",
+                       description="Run a study: a base scene plus sweeps (grid, zip or CSV rows), "
+                                   "one run directory per case, results.csv, and the report. Under "
+                                   "mpirun the cases are spread over the ranks. Safe to re-run: "
+                                   "finished cases are not run again.")
+    p.add_argument("study", help="study file (TOML)")
+    p.add_argument("--out", required=True, help="output directory")
+    p.add_argument("--dry-run", action="store_true", help="list the cases and the estimated cost, run nothing")
+    p.add_argument("--no-report", action="store_true", help="do not write the report at the end")
+
+    p = sub.add_parser("report", parents=[common], help="plots and tables for a study directory")
+    p.add_argument("directory", help="a directory written by rollsim study")
+
     p = sub.add_parser("design", parents=[common], help="design charts, wheel comparison and lab validation",
                        description="The analytic design study: sinkage-strength charts for several "
                                    "loads and two wheels, influence depth vs load, the two-wheel "
@@ -386,6 +399,39 @@ def cmd_check(args) -> dict:
     return scene
 
 
+def cmd_study(args) -> dict:
+    from mpi4py import MPI
+
+    from rollsim.log import setup_logging
+    from rollsim.studies import study as st
+    comm = MPI.COMM_WORLD
+    setup_logging(comm, quiet=args.quiet)
+    study = st.load_study(args.study)  # every case is validated before anything is written
+    if args.dry_run:
+        if comm.rank == 0 and not args.json:
+            print("\n".join(st.dry_run_lines(study)))
+        return {"cases": [c.name for c in study.cases], "runner": study.runner}
+    runner = st.analytic_runner(study.reference_loads)
+    rows = st.run_study(study, args.out, comm, runner, quiet=args.quiet)
+    report = None
+    if not args.no_report and comm.rank == 0:
+        from rollsim.studies.report import write_report
+        report = str(write_report(args.out))
+    counts = {s: sum(r["status"] == s for r in rows) for s in ("ok", "failed")}
+    if comm.rank == 0 and not args.json:
+        print(f"{len(rows)} cases: {counts['ok']} ok, {counts['failed']} failed; results {args.out}/results.csv"
+              + (f"; report {report}" if report else ""))
+    return {"cases": len(rows), **counts, "results": f"{args.out}/results.csv", "report": report}
+
+
+def cmd_report(args) -> dict:
+    from rollsim.studies.report import write_report
+    path = write_report(args.directory)
+    if not args.json:
+        print(f"report: {path}")
+    return {"report": str(path)}
+
+
 def cmd_design(args) -> dict:
     from rollsim.log import setup_logging
     from rollsim.studies.design import run_design_study
@@ -394,7 +440,7 @@ def cmd_design(args) -> dict:
 
 
 COMMANDS = {"predict": cmd_predict, "invert": cmd_invert, "influence": cmd_influence, "check": cmd_check,
-            "design": cmd_design}
+            "study": cmd_study, "report": cmd_report, "design": cmd_design}
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -410,9 +456,14 @@ def main(argv: list[str] | None = None) -> int:
     except NoAnswer as e:
         code, payload = EXIT_NO_ANSWER, e.payload
         print(f"rollsim: {e}", file=sys.stderr)
-    if as_json and payload is not None:
+    if as_json and payload is not None and _rank() == 0:
         print(json.dumps(payload))
     return code
+
+
+def _rank() -> int:
+    from mpi4py import MPI
+    return MPI.COMM_WORLD.rank
 
 
 def entry() -> None:

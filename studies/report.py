@@ -1,0 +1,199 @@
+"""``rollsim report DIR``: plots and a results table for a study directory, as one Markdown page.
+
+Writes into DIR: force_sinkage.png (curves with their fits), effect_<key>.png (sinkage at
+the first reference load against each swept numeric parameter, computed points over the
+bearing-capacity model), pair_<key>.png (cases differing only in one two-valued key, such
+as friction 0.4 vs 0.8) and report.md.
+"""
+from __future__ import annotations
+
+import csv
+import json
+import math
+import pathlib
+import re
+
+import numpy as np
+
+from rollsim.units import InputError
+
+MAX_CURVES = 16  # force-sinkage curves per figure
+
+
+def _plt():
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    return plt
+
+
+def _read_csv(path: pathlib.Path) -> list[dict]:
+    with path.open(newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def _number(text):
+    """The SI value of a swept value ("40 MPa", 0.8) or None when it is not a quantity."""
+    if isinstance(text, (int, float)):
+        return float(text)
+    from rollsim.units import registry
+    try:
+        q = registry().Quantity(str(text))
+    except Exception:
+        return None
+    try:
+        return float(q.to_base_units().magnitude) if not q.dimensionless else float(q.to("").magnitude) \
+            if str(q.units) == "dimensionless" else float(q.to("degree").magnitude)
+    except Exception:
+        return None
+
+
+def _safe(key: str) -> str:
+    return re.sub(r"[^A-Za-z0-9]+", "_", key).strip("_")
+
+
+def force_sinkage_figure(out: pathlib.Path, cases: list[dict]) -> list[str]:
+    """Normalised force-sinkage curves with their k1..k4 fits, MAX_CURVES per figure."""
+    from rollsim.studies.fit import ForceSinkageFit
+    plt = _plt()
+    names = []
+    for start in range(0, len(cases), MAX_CURVES):
+        chunk = cases[start:start + MAX_CURVES]
+        fig, ax = plt.subplots(figsize=(7.5, 5))
+        for i, c in enumerate(chunk):
+            h, d, g = c["history"], c["d"], c["gamma"]
+            x = np.array([float(r["sinkage_m"]) for r in h]) / d
+            y = np.array([float(r["QV_N"]) for r in h]) / (g * d**3)
+            line, = ax.plot(x, y, "o", ms=3, color=f"C{i % 10}", label=c["name"])
+            k = c.get("k")
+            if k is not None:
+                xs = np.linspace(0, x.max(), 100)
+                ax.plot(xs, ForceSinkageFit(k, 1.0, 0).force(xs * d, d, g) / (g * d**3), "-", color=line.get_color(),
+                        lw=1)
+        ax.set(xlabel="s / d", ylabel="Q_V / (gamma d^3)", title="Force-sinkage curves (points) and fits (lines)")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=6, ncol=2)
+        name = "force_sinkage.png" if start == 0 else f"force_sinkage_{start // MAX_CURVES + 1}.png"
+        fig.tight_layout()
+        fig.savefig(out / name, dpi=120)
+        plt.close(fig)
+        names.append(name)
+    return names
+
+
+def effect_figures(out: pathlib.Path, study: dict, rows: list[dict], load_tag: str | None) -> list[tuple[str, str]]:
+    """Sinkage at the first reference load vs every swept numeric key; pairs for two-valued keys."""
+    if load_tag is None:
+        return []
+    plt = _plt()
+    keys = list(dict.fromkeys(k for c in study["cases"] for k in c["overrides"]))
+    figures = []
+    ok = [r for r in rows if r.get("status") == "ok"]
+    for key in keys:
+        values = [_number(r.get(key)) for r in ok]
+        if any(v is None for v in values) or len(set(values)) < 2:
+            continue
+        s = np.array([float(r.get(f"sinkage_{load_tag}_m") or "nan") for r in ok])
+        m = np.array([float(r.get(f"model_sinkage_{load_tag}_m") or "nan") for r in ok])
+        v = np.array(values)
+        order = np.argsort(v)
+        fig, ax = plt.subplots(figsize=(6.5, 4.2))
+        ax.plot(v[order], 1e3 * m[order], "-", color="0.4", label="bearing-capacity model")
+        ax.plot(v, 1e3 * s, "o", color="C3", label="computed")
+        ax.set(xlabel=f"{key} (SI)", ylabel=f"sinkage at {load_tag} (mm)", title=f"Effect of {key}")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+        name = f"effect_{_safe(key)}.png"
+        fig.tight_layout()
+        fig.savefig(out / name, dpi=120)
+        plt.close(fig)
+        figures.append((name, f"sinkage at {load_tag} against {key}"))
+        distinct = sorted(set(values))
+        if len(distinct) == 2:
+            figures += _pair_figure(out, key, ok, keys, distinct, load_tag)
+    return figures
+
+
+def _pair_figure(out, key, ok, keys, distinct, load_tag):
+    """Cases that differ only in ``key`` (two values): sinkage with one value against the other."""
+    plt = _plt()
+    others = [k for k in keys if k != key]
+    by_rest: dict = {}
+    for r in ok:
+        by_rest.setdefault(tuple(r.get(k) for k in others), {})[_number(r.get(key))] = r
+    pairs = [(g[distinct[0]], g[distinct[1]]) for g in by_rest.values() if len(g) == 2]
+    if not pairs:
+        return []
+    a = np.array([float(p[0][f"sinkage_{load_tag}_m"] or "nan") for p in pairs]) * 1e3
+    b = np.array([float(p[1][f"sinkage_{load_tag}_m"] or "nan") for p in pairs]) * 1e3
+    fig, ax = plt.subplots(figsize=(4.8, 4.5))
+    ax.plot(a, b, "o", color="C0")
+    lim = [0, np.nanmax(np.r_[a, b, 1.0]) * 1.1]
+    ax.plot(lim, lim, "k:", lw=0.8)
+    ax.set(xlim=lim, ylim=lim, xlabel=f"sinkage, {key} = {distinct[0]:g} (mm)",
+           ylabel=f"sinkage, {key} = {distinct[1]:g} (mm)",
+           title=f"{key}: mean ratio {np.nanmean(b / a):.3f}")
+    ax.grid(alpha=0.3)
+    name = f"pair_{_safe(key)}.png"
+    fig.tight_layout()
+    fig.savefig(out / name, dpi=120)
+    plt.close(fig)
+    return [(name, f"{key} = {distinct[1]:g} vs {distinct[0]:g}, case by case")]
+
+
+def _markdown_table(rows: list[dict]) -> str:
+    if not rows:
+        return "(no cases)"
+    keys = list(rows[0])
+    lines = ["| " + " | ".join(keys) + " |", "|" + "---|" * len(keys)]
+    for r in rows:
+        cells = []
+        for k in keys:
+            v = r.get(k, "")
+            try:
+                f = float(v)
+                cells.append(f"{f:.4g}" if math.isfinite(f) else "")
+            except (TypeError, ValueError):
+                cells.append(str(v))
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def write_report(directory) -> pathlib.Path:
+    """Plots and the results table of the study in ``directory``; returns the report path."""
+    out = pathlib.Path(directory)
+    if not (out / "study.json").is_file() or not (out / "results.csv").is_file():
+        raise InputError(str(out), "not a study directory (no study.json / results.csv): run rollsim study first")
+    study = json.loads((out / "study.json").read_text())
+    rows = _read_csv(out / "results.csv")
+    cases = []
+    for r in rows:
+        case_dir = out / "cases" / r["case"]
+        if r.get("status") != "ok" or not (case_dir / "history.csv").is_file():
+            continue
+        summary = json.loads((case_dir / "summary.json").read_text())
+        scene = summary.get("scene", {})
+        k = tuple(float(r[f"k{i}"]) for i in range(1, 5)) if r.get("k1") else None
+        cases.append({"name": r["case"], "history": _read_csv(case_dir / "history.csv"), "k": k,
+                      "d": scene["wheel"]["diameter"], "gamma": scene["soil"]["gamma"]})
+    loads = study.get("reference_loads_N") or []
+    load_tag = f"{loads[0] / 1e3:g}kN" if loads else None
+    curves = force_sinkage_figure(out, cases) if cases else []
+    effects = effect_figures(out, study, rows, load_tag)
+    n_ok = sum(r.get("status") == "ok" for r in rows)
+    text = [f"# Study report: {pathlib.Path(study['study']).name}", "",
+            f"{len(rows)} cases ({n_ok} ok), runner `{study['runner']}`; reference loads "
+            + (", ".join(f"{v / 1e3:g} kN" for v in loads) or "none") + ".", "",
+            "## Force-sinkage curves", ""]
+    text += [f"![force-sinkage]({name})" for name in curves] or ["(no completed case)"]
+    if effects:
+        text += ["", "## Parameter effects", ""]
+        for name, caption in effects:
+            text += [f"![{caption}]({name})", "", f"*{caption}*", ""]
+    text += ["", "## Results", "", "Fit: Q_V/(gamma d^3) = k1 sqrt(x) + k2 x + k3 x^2 + k4 x^3, x = s/d; "
+             "ratio = computed sinkage / bearing-capacity model sinkage at the reference load.", "",
+             _markdown_table(rows), ""]
+    path = out / "report.md"
+    from rollsim.studies.study import atomic_write_text
+    atomic_write_text(path, "\n".join(text))
+    return path

@@ -1,0 +1,175 @@
+"""The study runner: sweep expansion, resume after a kill, atomic results, rank distribution, report."""
+import json
+import os
+import pathlib
+import textwrap
+import uuid
+
+import pytest
+from mpi4py import MPI
+
+from rollsim.cli import main
+from rollsim.studies import study as st
+from rollsim.units import InputError
+
+ROOT = pathlib.Path(__file__).parents[1]
+BASE = (ROOT / "examples" / "indentation_mndot.toml").as_posix()
+
+
+def write_study(directory: pathlib.Path, body: str, name="study.toml") -> pathlib.Path:
+    path = directory / name
+    if MPI.COMM_WORLD.rank == 0:
+        path.write_text(f'base = "{BASE}"\n' + textwrap.dedent(body))
+    MPI.COMM_WORLD.barrier()
+    return path
+
+
+GRID = """
+reference_loads = ["100 kN"]
+[[sweep]]
+"soil.layers[0].E" = ["20 MPa", "40 MPa"]
+"wheel.friction" = [0.4, 0.8]
+[[sweep]]
+mode = "zip"
+"wheel.diameter" = ["1.2 m", "1.5 m"]
+"wheel.width" = ["0.3 m", "0.45 m"]
+"""
+
+
+def test_grid_zip_product_expansion(tmp_mpi_path):
+    study = st.load_study(write_study(tmp_mpi_path, GRID))
+    assert len(study.cases) == 4 * 2
+    names = [c.name for c in study.cases]
+    assert len(set(names)) == 8 and names[0] == "E=20MPa_friction=0.4__diameter=1.2m_width=0.3m"
+    last = study.cases[-1].scene
+    assert last.soil.layers[0].E == 40e6 and last.wheel.friction == 0.8
+    assert (last.wheel.diameter, last.wheel.width) == (1.5, 0.45)  # zipped, not crossed
+    assert study.reference_loads == (100e3,)
+
+
+def test_csv_rows_expansion(tmp_mpi_path):
+    study = st.load_study(ROOT / "studies" / "examples" / "analytic_indentation_cases.toml")
+    assert [c.name for c in study.cases] == [f"case-{i:02d}" for i in range(1, 13)]
+    case5 = study.cases[4].scene.soil.layers[0]
+    assert case5.c_dp == pytest.approx(194.6e3) and case5.phi_dp == pytest.approx(0.47996554, rel=1e-6)
+
+
+@pytest.mark.parametrize("body, field", [
+    ('[[sweep]]\n"soil.layers[0].nu" = [0.3, 0.6]\n', "case nu=0.6: soil.layers[0].nu"),
+    ('[[sweep]]\nmode = "zip"\n"wheel.width" = ["0.3 m"]\n"wheel.diameter" = ["1 m", "2 m"]\n', "sweep[0].wheel.width"),
+    ('[[sweep]]\n"soil.layers[3].E" = ["1 MPa"]\n', "soil.layers[3].E"),
+    ('[[sweep]]\ncsv = "missing.csv"\n', "sweep[0].csv"),
+    ('colour = 1\n', "colour"),
+    ('runner = "quantum"\n', "runner"),
+])
+def test_bad_study_names_the_key(tmp_mpi_path, body, field):
+    with pytest.raises(InputError) as e:
+        st.load_study(write_study(tmp_mpi_path, body))
+    assert e.value.field == field
+
+
+def counting_runner(log_dir: pathlib.Path, fail=()):
+    """Runs a case by writing a marker per invocation (to count runs) and a history curve."""
+    def run(case, case_dir, comm):
+        if comm.rank == 0:
+            (log_dir / f"{case.name}.{uuid.uuid4().hex}.ran").write_text("")
+        if case.name in fail:
+            raise RuntimeError("diverged on purpose")
+        summary = st.analytic_runner([100e3])(case, case_dir, comm)
+        summary["world_rank"] = MPI.COMM_WORLD.rank
+        return summary
+    return run
+
+
+def runs(log_dir: pathlib.Path, name: str) -> int:
+    return len(list(log_dir.glob(f"{name}.*.ran")))
+
+
+def test_resume_after_kill_and_failure_isolation(tmp_mpi_path):
+    comm = MPI.COMM_WORLD
+    study = st.load_study(write_study(tmp_mpi_path, GRID))
+    out, log_dir = tmp_mpi_path / "out", tmp_mpi_path / "log"
+    if comm.rank == 0:
+        log_dir.mkdir()
+    comm.barrier()
+    failing = study.cases[1].name
+    rows = st.run_study(study, out, comm, counting_runner(log_dir, fail={failing}), quiet=True)
+    assert [r["status"] for r in rows].count("ok") == 7
+    assert next(r for r in rows if r["case"] == failing)["status"] == "failed"
+    # simulate a kill in the middle of case 3: summary missing, files half-written
+    killed = study.cases[3].name
+    if comm.rank == 0:
+        (out / "cases" / killed / "summary.json").unlink()
+        (out / "cases" / killed / "history.csv").write_text("step,sinkage_m\n1,0.0")
+    comm.barrier()
+    rows = st.run_study(study, out, comm, counting_runner(log_dir), quiet=True)
+    assert all(runs(log_dir, c.name) == (2 if c.name == killed else 1) for c in study.cases)
+    assert next(r for r in rows if r["case"] == killed)["status"] == "ok"
+    assert next(r for r in rows if r["case"] == failing)["status"] == "failed"  # recorded, not retried
+    assert not list(out.rglob("*.tmp"))
+    lines = (out / "results.csv").read_text().splitlines()
+    assert len(lines) == 1 + len(study.cases) and lines[0].startswith("case,")
+
+
+def test_atomic_write_keeps_old_file_on_crash(tmp_path, monkeypatch):
+    path = tmp_path / "results.csv"
+    st.atomic_write_text(path, "old\n")
+
+    def crash(*_):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(os, "replace", crash)
+    with pytest.raises(KeyboardInterrupt):
+        st.atomic_write_text(path, "new\n")
+    assert path.read_text() == "old\n"
+
+
+@pytest.mark.parametrize("ranks_per_case", [1, 2])
+def test_cases_spread_over_ranks(tmp_mpi_path, ranks_per_case):
+    comm = MPI.COMM_WORLD
+    study = st.load_study(write_study(tmp_mpi_path, GRID + f"\n", name="s.toml"))
+    study = st.Study(study.path, study.runner, study.reference_loads, ranks_per_case, study.cases)
+    out, log_dir = tmp_mpi_path / f"out{ranks_per_case}", tmp_mpi_path / f"log{ranks_per_case}"
+    if comm.rank == 0:
+        log_dir.mkdir()
+    comm.barrier()
+    st.run_study(study, out, comm, counting_runner(log_dir), quiet=True)
+    assert all(runs(log_dir, c.name) == 1 for c in study.cases)  # every case exactly once
+    summaries = [json.loads((out / "cases" / c.name / "summary.json").read_text()) for c in study.cases]
+    group_size = min(ranks_per_case, comm.size)
+    assert {s["ranks"] for s in summaries} == {group_size}
+    assert {s["world_rank"] for s in summaries} == set(range(0, comm.size, group_size))
+
+
+def test_report_from_small_study(tmp_mpi_path):
+    study = write_study(tmp_mpi_path, GRID)
+    out = tmp_mpi_path / "rep"
+    assert main(["study", str(study), "--out", str(out), "--quiet"]) == 0
+    if MPI.COMM_WORLD.rank == 0:
+        report = (out / "report.md").read_text()
+        assert "![force-sinkage](force_sinkage.png)" in report and "| case |" in report
+        for name in ("force_sinkage.png", "effect_soil_layers_0_E.png", "pair_wheel_friction.png"):
+            assert (out / name).stat().st_size > 0
+        # the analytic runner against the model itself: ratio 1 up to the curve's interpolation
+        rows = (out / "results.csv").read_text().splitlines()
+        header = rows[0].split(",")
+        ratio = [float(r.split(",")[header.index("ratio_100kN")]) for r in rows[1:]]
+        assert all(abs(x - 1) < 0.02 for x in ratio)
+
+
+@pytest.mark.serial
+def test_bad_case_exit_2_nothing_written(tmp_path, capsys):
+    study = tmp_path / "study.toml"
+    study.write_text(f'base = "{BASE}"\n[[sweep]]\n"soil.layers[0].nu" = [0.3, 0.7]\n')
+    code = main(["study", str(study), "--out", str(tmp_path / "out")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and "case nu=0.7: soil.layers[0].nu" in err[0]
+    assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.serial
+def test_dry_run_lists_cases(tmp_path, capsys):
+    assert main(["study", str(ROOT / "studies/examples/analytic_indentation_cases.toml"), "--out",
+                 str(tmp_path / "o"), "--dry-run"]) == 0
+    out = capsys.readouterr().out
+    assert "12 cases" in out and "case-12:" in out and not (tmp_path / "o").exists()
