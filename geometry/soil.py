@@ -43,12 +43,16 @@ class RefinedZone:
     depth: float
 
     def __post_init__(self):
-        if not self.x_max > self.x_min:
-            raise ValueError(f"x_max ({self.x_max}) must be > x_min ({self.x_min})")
-        if not self.half_width > 0:
-            raise ValueError(f"half_width must be > 0, got {self.half_width}")
-        if not self.depth > 0:
-            raise ValueError(f"depth must be > 0, got {self.depth}")
+        _check_box(self.x_min, self.x_max, self.half_width, self.depth)
+
+
+def _check_box(x_min: float, x_max: float, half_width: float, depth: float) -> None:
+    if not x_max > x_min:
+        raise ValueError(f"x_max ({x_max}) must be > x_min ({x_min})")
+    if not half_width > 0:
+        raise ValueError(f"half_width must be > 0, got {half_width}")
+    if not depth > 0:
+        raise ValueError(f"depth must be > 0, got {depth}")
 
 
 def _check_layers(layers: tuple[float, ...], depth: float) -> None:
@@ -78,12 +82,7 @@ class SoilBlock:
     x_stiff: float | None = None
 
     def __post_init__(self):
-        if not self.x_max > self.x_min:
-            raise ValueError(f"x_max ({self.x_max}) must be > x_min ({self.x_min})")
-        if not self.half_width > 0:
-            raise ValueError(f"half_width must be > 0, got {self.half_width}")
-        if not self.depth > 0:
-            raise ValueError(f"depth must be > 0, got {self.depth}")
+        _check_box(self.x_min, self.x_max, self.half_width, self.depth)
         if self.cut not in CUTS:
             raise ValueError(f"cut must be one of {CUTS}, got {self.cut!r}")
         if self.cut == "quarter" and not self.x_min < 0 < self.x_max:
