@@ -1,1 +1,6 @@
-"""rollsim."""
+"""rollsim: test-rolling simulation (bearing-capacity model and finite-element solver)."""
+import os
+
+# One BLAS thread per MPI rank unless the user says otherwise (set before numpy loads BLAS).
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+os.environ.setdefault("OMP_NUM_THREADS", "1")

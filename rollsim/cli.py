@@ -14,6 +14,7 @@ import sys
 from rollsim.units import ANGLE, FLEXIBILITY, FORCE, LENGTH, PRESSURE, UNIT_WEIGHT, InputError, to_si
 
 EXIT_OK, EXIT_FAILURE, EXIT_INPUT, EXIT_NO_ANSWER = 0, 1, 2, 3
+PARALLEL_COMMANDS = ("run", "study")  # commands that run on all ranks of COMM_WORLD
 MNDOT_DIAMETER, MNDOT_WIDTH = "1.524 m", "0.4572 m"  # the Mn/DOT test-roller tire (60 x 18 in)
 
 
@@ -81,6 +82,7 @@ def build_parser() -> argparse.ArgumentParser:
     common = _Parser(add_help=False)
     common.add_argument("--json", action="store_true", help="print one JSON object as the last line of stdout")
     common.add_argument("--quiet", action="store_true", help="no progress or notes on stderr")
+    common.add_argument("--verbose", action="store_true", help="also log every load step's Newton residuals")
 
     p = sub.add_parser("predict", parents=[common], help="bearing-capacity model: load <-> sinkage",
                        description="Bearing-capacity wheel model: give --load to get the sinkage, or "
@@ -128,6 +130,16 @@ def build_parser() -> argparse.ArgumentParser:
                        description="Validate a scene file (TOML) and print it in SI units "
                                    "(angles in degrees). " + UNITS_HELP)
     p.add_argument("scene", help="scene file (TOML)")
+
+    p = sub.add_parser("run", parents=[common], help="one finite-element simulation of a scene",
+                       description="Run one finite-element simulation of a scene file and write the run "
+                                   "directory: summary.json, history.csv, fields/ (XDMF) and plots. "
+                                   "Under mpirun the mesh is distributed over the ranks. " + UNITS_HELP)
+    p.add_argument("scene", help="scene file (TOML)")
+    p.add_argument("--out", required=True, help="output directory")
+    p.add_argument("--no-fields", action="store_true", help="do not write XDMF fields")
+    p.add_argument("--petsc-option", action="append", default=[], metavar="KEY=VALUE",
+                   help="PETSc option for the Newton solver (repeatable), e.g. snes_linesearch_type=bt")
 
     p = sub.add_parser("study", parents=[common], help="run a sweep of scenes (resumes when re-run)",
                        description="Run a study: a base scene plus sweeps (grid, zip or CSV rows), "
@@ -399,19 +411,66 @@ def cmd_check(args) -> dict:
     return scene
 
 
+def _petsc_options(items) -> dict:
+    options = {}
+    for item in items:
+        key, sep, value = item.partition("=")
+        if not sep or not key.strip():
+            raise InputError("--petsc-option", f"expected KEY=VALUE, got {item!r}")
+        options[key.strip().lstrip("-")] = value.strip()
+    return options
+
+
+def cmd_run(args) -> dict:
+    from mpi4py import MPI
+
+    from rollsim.log import setup_logging
+    from rollsim.scene import load_scene
+    comm = MPI.COMM_WORLD
+    setup_logging(comm, quiet=args.quiet, verbose=args.verbose)
+    scene = load_scene(args.scene)
+    options = _petsc_options(args.petsc_option)
+    if scene.loading.protocol != "indentation":
+        raise InputError("loading.protocol", f"{scene.loading.protocol!r} is not available in the finite-element "
+                         "solver yet (indentation is); the bearing-capacity model covers rolling: rollsim predict")
+    if scene.wheel.type != "rigid":
+        raise InputError("wheel.type", "the finite-element solver has rigid wheels so far")
+    from rollsim.solver.run import run_scene
+    summary = run_scene(scene, args.out, comm, progress=not args.quiet, petsc_options=options or None,
+                        write_fields=not args.no_fields)
+    if comm.rank == 0:
+        from rollsim.studies.report import run_report
+        run_report(args.out)
+    if not args.json and comm.rank == 0:
+        print(f"{summary['status']}: {summary['steps']} steps, Q_V = {summary['QV_N'] / 1e3:.2f} kN at "
+              f"s = {summary['sinkage_m']:.4f} m; {args.out}/summary.json")
+    if summary["status"] != "ok":
+        raise RunFailed(summary.get("reason", "failed"), {"error": "failed", "reason": summary.get("reason", "")})
+    return {k: summary[k] for k in ("status", "steps", "sinkage_m", "QV_N", "QH_N", "wall_time_s", "ranks", "dofs")}
+
+
+class RunFailed(Exception):
+    """A simulation ended in a failure state (exit 1); its run directory holds the diagnostics."""
+
+    def __init__(self, message: str, payload: dict):
+        super().__init__(message)
+        self.payload = payload
+
+
 def cmd_study(args) -> dict:
     from mpi4py import MPI
 
     from rollsim.log import setup_logging
     from rollsim.studies import study as st
     comm = MPI.COMM_WORLD
-    setup_logging(comm, quiet=args.quiet)
+    setup_logging(comm, quiet=args.quiet, verbose=args.verbose)
     study = st.load_study(args.study)  # every case is validated before anything is written
     if args.dry_run:
         if comm.rank == 0 and not args.json:
             print("\n".join(st.dry_run_lines(study)))
         return {"cases": [c.name for c in study.cases], "runner": study.runner}
-    runner = st.analytic_runner(study.reference_loads)
+    runner = (st.analytic_runner(study.reference_loads) if study.runner == "analytic"
+              else st.fe_runner(study.reference_loads))
     rows = st.run_study(study, args.out, comm, runner, quiet=args.quiet)
     report = None
     if not args.no_report and comm.rank == 0:
@@ -425,8 +484,11 @@ def cmd_study(args) -> dict:
 
 
 def cmd_report(args) -> dict:
-    from rollsim.studies.report import write_report
-    path = write_report(args.directory)
+    import pathlib
+
+    from rollsim.studies.report import run_report, write_report
+    is_run = (pathlib.Path(args.directory) / "history.csv").is_file()
+    path = run_report(args.directory) if is_run else write_report(args.directory)
     if not args.json:
         print(f"report: {path}")
     return {"report": str(path)}
@@ -435,12 +497,12 @@ def cmd_report(args) -> dict:
 def cmd_design(args) -> dict:
     from rollsim.log import setup_logging
     from rollsim.studies.design import run_design_study
-    setup_logging(quiet=args.quiet)
+    setup_logging(quiet=args.quiet, verbose=args.verbose)
     return run_design_study(args.out, quiet=args.quiet)
 
 
 COMMANDS = {"predict": cmd_predict, "invert": cmd_invert, "influence": cmd_influence, "check": cmd_check,
-            "study": cmd_study, "report": cmd_report, "design": cmd_design}
+            "run": cmd_run, "study": cmd_study, "report": cmd_report, "design": cmd_design}
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -456,7 +518,11 @@ def main(argv: list[str] | None = None) -> int:
     except NoAnswer as e:
         code, payload = EXIT_NO_ANSWER, e.payload
         print(f"rollsim: {e}", file=sys.stderr)
-    if as_json and payload is not None and _rank() == 0:
+    except RunFailed as e:
+        code, payload = EXIT_FAILURE, e.payload
+        print(f"rollsim: the run failed: {e}", file=sys.stderr)
+    parallel = bool(argv) and argv[0] in PARALLEL_COMMANDS  # one JSON object per run, from rank 0
+    if as_json and payload is not None and (not parallel or _rank() == 0):
         print(json.dumps(payload))
     return code
 
@@ -467,4 +533,11 @@ def _rank() -> int:
 
 
 def entry() -> None:
-    sys.exit(main())
+    try:
+        code = main()
+        sys.stdout.flush()
+    except BrokenPipeError:  # output piped into e.g. `head`: stop quietly
+        import os
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        code = EXIT_OK
+    sys.exit(code)

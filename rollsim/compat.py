@@ -81,3 +81,21 @@ def write_tagged_mesh(comm: MPI.Comm, path, mesh, cell_tags, facet_tags) -> None
         xdmf.write_mesh(mesh)
         xdmf.write_meshtags(cell_tags)
         xdmf.write_meshtags(facet_tags)
+
+
+def interpolation_points(V) -> np.ndarray:
+    """Reference interpolation points of the element of ``V`` (a method in 0.5, a property later)."""
+    pts = V.element.interpolation_points
+    return pts() if callable(pts) else pts
+
+
+def cell_diameters(mesh, cells: np.ndarray) -> np.ndarray:
+    """Largest vertex-to-vertex distance of each of the local ``cells``."""
+    x = mesh.geometry.x
+    dofmap = mesh.geometry.dofmap
+    nv = {"interval": 2, "triangle": 3, "tetrahedron": 4, "quadrilateral": 4,
+          "hexahedron": 8}[mesh.topology.cell_name()]
+    idx = np.array([dofmap.links(c)[:nv] for c in cells], dtype=np.int64).reshape(len(cells), nv)
+    pts = x[idx]                                           # (n, nv, 3)
+    diff = pts[:, :, None, :] - pts[:, None, :, :]
+    return np.sqrt((diff ** 2).sum(-1)).max(axis=(1, 2))

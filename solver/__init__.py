@@ -4,7 +4,8 @@ Public API::
 
     from rollsim.solver import (VonMises, DruckerPrager, mc_to_dp, dp_to_mc, von_mises_from_tresca,
                                 return_map, PlasticityProblem, StepControl, solve_load_path,
-                                SolverDivergedError, StripFooting, strip_footing_mesh, prandtl_nc)
+                                SolverDivergedError, StripFooting, strip_footing_mesh, prandtl_nc,
+                                RigidWheelContact, Circle, WheelIndentation, run_scene, FieldWriter)
 
 DOLFINx-dependent parts are imported lazily so that the constitutive code (numpy only) can be
 used without DOLFINx.
@@ -12,6 +13,8 @@ used without DOLFINx.
 from .materials import VonMises, DruckerPrager, mc_to_dp, dp_to_mc, von_mises_from_tresca  # noqa: F401
 from .return_map import (return_map, ReturnResult, elastic_stiffness, yield_function,  # noqa: F401
                          invariants, ELASTIC, PLASTIC, APEX)
+from .materials import jaky_k0, admissible_k0  # noqa: F401
+from .smoothed_mc import SmoothedMohrCoulomb, mohr_coulomb_exact  # noqa: F401
 
 _LAZY = {
     "PlasticityProblem": "problem", "NewtonReport": "problem", "mandel_strain": "problem",
@@ -19,6 +22,9 @@ _LAZY = {
     "SolverDivergedError": "stepping", "solve_load_path": "stepping",
     "StripFooting": "footing", "FootingResult": "footing", "strip_footing_mesh": "footing",
     "prandtl_nc": "footing",
+    "RigidWheelContact": "contact", "Circle": "contact", "WheelForces": "contact",
+    "WheelIndentation": "indentation", "IndentationStep": "indentation", "LoadControlResult": "indentation",
+    "run_scene": "run", "FieldWriter": "fields",
 }
 
 
@@ -31,4 +37,4 @@ def __getattr__(name):
 
 __all__ = ["VonMises", "DruckerPrager", "mc_to_dp", "dp_to_mc", "von_mises_from_tresca", "return_map",
            "ReturnResult", "elastic_stiffness", "yield_function", "invariants", "ELASTIC", "PLASTIC",
-           "APEX", *_LAZY]
+           "APEX", "jaky_k0", "admissible_k0", "SmoothedMohrCoulomb", "mohr_coulomb_exact", *_LAZY]

@@ -39,7 +39,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-__all__ = ["VonMises", "DruckerPrager", "mc_to_dp", "dp_to_mc", "von_mises_from_tresca"]
+__all__ = ["VonMises", "DruckerPrager", "mc_to_dp", "dp_to_mc", "von_mises_from_tresca", "jaky_k0",
+           "admissible_k0"]
 
 MATCHINGS = ("compression", "extension", "plane_strain")
 
@@ -194,3 +195,45 @@ def dp_to_mc(phi_dp: float, c_dp: float, matching: str = "compression") -> tuple
 def von_mises_from_tresca(E: float, nu: float, c: float) -> VonMises:
     """Plane-strain match of a Tresca material with cohesion (undrained strength) ``c``."""
     return VonMises(E=E, nu=nu, yield_stress=math.sqrt(3.0) * c)
+
+
+def jaky_k0(phi: float) -> float:
+    """Jaky's at-rest coefficient ``K0 = 1 - sin(phi)`` (phi in radians, Mohr-Coulomb angle)."""
+    if not 0.0 <= phi < math.pi / 2:
+        raise ValueError(f"phi must be in [0, pi/2) radians, got {phi!r}")
+    return 1.0 - math.sin(phi)
+
+
+def admissible_k0(material, K0: float | None, max_vertical_stress: float, ncomp: int = 4,
+                  margin: float = 0.1) -> tuple[float, bool]:
+    """Geostatic coefficient actually usable with ``material``: ``(K0_used, clipped)``.
+
+    The geostatic state ``sigma_v = -s``, ``sigma_h = -K0 s`` (all non-vertical normal stresses) is
+    checked at the deepest point ``s = max_vertical_stress`` (Pa, > 0): for the cone and for
+    Mohr-Coulomb the stress ratio violates yield worst at depth (cohesion helps relatively less
+    there), for von Mises too.  ``K0=None`` means the elastic value ``nu/(1-nu)``.  If the state is
+    inadmissible, K0 is moved towards 1 (hydrostatic, always admissible in compression): to the
+    yield boundary ``K_b`` found by bisection plus ``margin (1 - K_b)``; ``clipped`` is True then
+    (the caller should warn).  Example: nu = 0.3 gives 0.4286, outside the plane-strain-matched
+    cone of phi = 30 deg (which needs K0 >= 0.465) - Jaky's 1 - sin(phi) = 0.5 is inside.
+    """
+    from .return_map import yield_function
+    K = material.nu / (1.0 - material.nu) if K0 is None else float(K0)
+    if not (math.isfinite(K) and K >= 0):
+        raise ValueError(f"K0 must be a finite number >= 0, got {K0!r}")
+    if not max_vertical_stress > 0:
+        return K, False
+
+    def f(k):
+        sig = [-k * max_vertical_stress] * 3 + [0.0] * (ncomp - 3)
+        sig[1 if ncomp == 4 else 2] = -max_vertical_stress
+        return float(yield_function(material, [sig])[0])
+
+    scale = max_vertical_stress + getattr(material, "cohesion", 0.0)
+    if f(K) <= -1e-12 * scale:
+        return K, False
+    lo, hi = K, 1.0                       # f(lo) > 0, f(1) < 0
+    for _ in range(80):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if f(mid) > 0 else (lo, mid)
+    return hi + margin * (1.0 - hi), True

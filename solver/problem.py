@@ -36,7 +36,7 @@ from petsc4py import PETSc
 from rollsim import compat
 from rollsim.log import get_logger
 
-from .return_map import return_map, elastic_stiffness, yield_function, ELASTIC, PLASTIC, APEX
+from .return_map import return_map, elastic_stiffness, yield_function, ReturnResult, ELASTIC, PLASTIC, APEX
 
 __all__ = ["NewtonReport", "PlasticityProblem", "mandel_strain", "DEFAULT_PETSC_OPTIONS"]
 
@@ -98,10 +98,20 @@ class PlasticityProblem:
     def __init__(self, mesh, material, bcs: Sequence = (), *, degree: int = 2,
                  quadrature_degree: int | None = None, body_force=None,
                  petsc_options: dict | None = None, options_prefix: str = "rollsim_plasticity_",
-                 force_rtol: float = 1e-10):
+                 force_rtol: float = 1e-10, cell_tags=None):
         self.mesh = mesh
         self.comm = mesh.comm
-        self.material = material
+        # one material, or {cell tag: material} with ``cell_tags`` (e.g. soil layers): the return
+        # map then runs per group of quadrature points; ``self.material`` is the first one
+        if isinstance(material, dict):
+            if cell_tags is None:
+                raise ValueError("cell_tags is required when material is a dict {cell tag: material}")
+            if not material:
+                raise ValueError("material: give at least one {cell tag: material}")
+            self.materials = dict(material)
+        else:
+            self.materials = {None: material}
+        self.material = next(iter(self.materials.values()))
         self.gdim = mesh.geometry.dim
         self.ncomp = 4 if self.gdim == 2 else 6
         self.degree = degree
@@ -131,8 +141,10 @@ class PlasticityProblem:
         self._deps_expr = compat.expression(
             mandel_strain(self.u, self.gdim) - mandel_strain(self.u_n, self.gdim), self.points)
 
-        D = elastic_stiffness(material, nc)
-        self._set_owned(self.tangent, np.broadcast_to(D.reshape(-1), (self.n_qp, nc * nc)))
+        self._groups = self._material_groups(cell_tags)      # [(material, owned qp indices)]
+        self._set_owned(self.tangent, self._elastic_tangent())
+        self._commit_hooks: list = []
+        self._restore_hooks: list = []
 
         self.dx = ufl.Measure("dx", domain=mesh, metadata={"quadrature_degree": self.qdeg,
                                                             "quadrature_scheme": "default"})
@@ -157,6 +169,54 @@ class PlasticityProblem:
         self._history: list[float] = []
 
     # ------------------------------------------------------------------ helpers
+    def _material_groups(self, cell_tags):
+        nq = self.points.shape[0]
+        if None in self.materials:
+            return [(self.materials[None], slice(None))]
+        tag_of = np.full(self.n_cells, -1, dtype=np.int64)
+        idx = cell_tags.indices
+        own = idx < self.n_cells
+        tag_of[idx[own]] = cell_tags.values[own]
+        missing = np.setdiff1d(np.unique(tag_of), list(self.materials))
+        if missing.size:
+            raise ValueError(f"cells with tag(s) {missing.tolist()} have no material "
+                             f"(materials given for tags {sorted(self.materials)})")
+        groups = []
+        for tag, mat in self.materials.items():
+            cells = np.flatnonzero(tag_of == tag)
+            groups.append((mat, (cells[:, None] * nq + np.arange(nq)[None, :]).reshape(-1)))
+        return groups
+
+    def _elastic_tangent(self) -> np.ndarray:
+        nc = self.ncomp
+        out = np.empty((self.n_qp, nc * nc))
+        for mat, qp in self._groups:
+            out[qp] = elastic_stiffness(mat, nc).reshape(-1)
+        return out
+
+    def material_function(self, attribute: str, name: str | None = None) -> fem.Function:
+        """Cell-wise (DG0) Function of a material attribute (e.g. ``"nu"``, ``"E"``) - for output
+        and per-layer expressions."""
+        W = compat.scalar_space(self.mesh, 0, "DG")
+        f = fem.Function(W, name=name or attribute)
+        nq = self.points.shape[0]
+        vals = np.zeros(self.n_cells)
+        for mat, qp in self._groups:
+            cells = np.arange(self.n_cells) if isinstance(qp, slice) else qp[::nq] // nq
+            vals[cells] = getattr(mat, attribute)
+        # DG0: one dof per cell, owned cells first in cell order
+        dofs = np.array([W.dofmap.cell_dofs(c)[0] for c in range(self.n_cells)], dtype=np.int32)
+        f.x.array[dofs] = vals
+        f.x.scatter_forward()
+        return f
+
+    def add_state_hooks(self, commit=None, restore=None) -> None:
+        """Callables run by :meth:`commit` / :meth:`restore` (e.g. contact history, wheel pose)."""
+        if commit is not None:
+            self._commit_hooks.append(commit)
+        if restore is not None:
+            self._restore_hooks.append(restore)
+
     def _set_owned(self, f: fem.Function, values: np.ndarray) -> None:
         n = values.size
         f.x.array[:n] = values.reshape(-1)
@@ -194,8 +254,13 @@ class PlasticityProblem:
         """Geostatic initial stress for a soil with unit weight ``gamma`` (N/m^3) and free surface at
         ``x[gdim-1] = surface``: sigma_v = -gamma (surface - z), sigma_h = K0 sigma_v,
         K0 = nu/(1-nu) by default.  Use with ``body_force = (0, .., -gamma)``."""
-        nu = self.material.nu
-        K0 = nu / (1.0 - nu) if K0 is None else K0
+        if K0 is None:
+            if len(self._groups) == 1:
+                nu = self.material.nu
+                K0 = nu / (1.0 - nu)
+            else:                                   # per layer K0 = nu/(1-nu)
+                nu = self.material_function("nu")
+                K0 = nu / (1.0 - nu)
         x = ufl.SpatialCoordinate(self.mesh)
         sv = -unit_weight * (surface - x[self.gdim - 1])
         comps = [K0 * sv] * 3
@@ -203,8 +268,11 @@ class PlasticityProblem:
         comps += [0.0 * sv] * (self.ncomp - 3)
         self.set_initial_stress(ufl.as_vector(comps))
         sig = self._owned(self.sigma_n, self.ncomp)
-        f = yield_function(self.material, sig)
-        nviol = self.comm.allreduce(int(np.sum(f > 1e-8 * (abs(self.material.cohesion) + np.abs(sig).max(initial=1.0)))))
+        nviol = 0
+        for mat, qp in self._groups:
+            f = yield_function(mat, sig[qp])
+            nviol += int(np.sum(f > 1e-8 * (abs(mat.cohesion) + np.abs(sig).max(initial=1.0))))
+        nviol = self.comm.allreduce(nviol)
         if nviol:
             log.warning("geostatic stress violates the yield condition at %d quadrature points", nviol)
 
@@ -214,8 +282,18 @@ class PlasticityProblem:
         t0 = time.perf_counter()
         compat.evaluate_into(self._deps_expr, self._deps_q)
         nc = self.ncomp
-        res = return_map(self.material, self._owned(self.sigma_n, nc), self._owned(self._deps_q, nc),
-                         tangent=tangent)
+        sig_n, deps = self._owned(self.sigma_n, nc), self._owned(self._deps_q, nc)
+        if len(self._groups) == 1:
+            res = return_map(self.material, sig_n, deps, tangent=tangent)
+        else:
+            parts = [(qp, return_map(mat, sig_n[qp], deps[qp], tangent=tangent)) for mat, qp in self._groups]
+            res = ReturnResult(sigma=np.empty_like(sig_n), tangent=np.empty((self.n_qp, nc, nc)) if tangent else None,
+                               deps_p=np.empty_like(sig_n), dlam=np.empty(self.n_qp),
+                               state=np.empty(self.n_qp, dtype=np.int8))
+            for qp, r in parts:
+                res.sigma[qp], res.deps_p[qp], res.dlam[qp], res.state[qp] = r.sigma, r.deps_p, r.dlam, r.state
+                if tangent:
+                    res.tangent[qp] = r.tangent
         self._set_owned(self.sigma, res.sigma)
         if tangent:
             self._set_owned(self.tangent, res.tangent.reshape(self.n_qp, nc * nc))
@@ -340,6 +418,8 @@ class PlasticityProblem:
 
     def commit(self) -> None:
         """Accept the current state as converged (update history variables)."""
+        for hook in self._commit_hooks:     # hooks see the state before the history update
+            hook()
         nc = self.ncomp
         self.sigma_n.x.array[:] = self.sigma.x.array
         ep = self._owned(self.eps_p, nc) + self._deps_p
@@ -351,6 +431,8 @@ class PlasticityProblem:
         self.u.x.array[:] = self.u_n.x.array
         self.sigma.x.array[:] = self.sigma_n.x.array
         self.state = np.zeros(self.n_qp, dtype=np.int8)
+        for hook in self._restore_hooks:
+            hook()
 
     def reset_displacement(self) -> None:
         """Zero the displacement (e.g. after a gravity step) keeping stresses and plastic strains."""
@@ -375,8 +457,7 @@ class PlasticityProblem:
         self._compile()
         nc = self.ncomp
         saved = self.tangent.x.array.copy()
-        D = elastic_stiffness(self.material, nc)
-        self._set_owned(self.tangent, np.broadcast_to(D.reshape(-1), (self.n_qp, nc * nc)))
+        self._set_owned(self.tangent, self._elastic_tangent())
         b = fpetsc.create_vector(self._F_form)
         b.set(1.0)
         fpetsc.set_bc(b, self.bcs)

@@ -101,6 +101,8 @@ def invariants(sigma: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def yield_function(material, sigma: np.ndarray) -> np.ndarray:
+    if hasattr(material, "yield_function"):          # e.g. SmoothedMohrCoulomb
+        return material.yield_function(np.atleast_2d(sigma))
     p, q = invariants(sigma)
     return q - material.tan_phi * p - material.cohesion
 
@@ -128,7 +130,12 @@ def return_map(material, sigma_n: np.ndarray, deps: np.ndarray, tangent: bool = 
     (``dlam = max(f_tr, 0)/H``), so points sitting on the yield surface get the elastoplastic
     tangent at zero increment (the first Newton iteration of a step then starts from the
     continuum tangent instead of the elastic one).
+
+    Materials that carry their own return map (:class:`~rollsim.solver.smoothed_mc.SmoothedMohrCoulomb`)
+    are dispatched to it, so :class:`PlasticityProblem` works with them unchanged.
     """
+    if hasattr(material, "return_map"):
+        return material.return_map(sigma_n, deps, tangent=tangent, rtol=rtol)
     sigma_n = np.atleast_2d(np.asarray(sigma_n, dtype=float))
     deps = np.atleast_2d(np.asarray(deps, dtype=float))
     n, ncomp = deps.shape

@@ -169,12 +169,15 @@ def write_report(directory) -> pathlib.Path:
     cases = []
     for r in rows:
         case_dir = out / "cases" / r["case"]
-        if r.get("status") != "ok" or not (case_dir / "history.csv").is_file():
+        if r.get("status") != "ok" or not (case_dir / "summary.json").is_file():
             continue
         summary = json.loads((case_dir / "summary.json").read_text())
         scene = summary.get("scene", {})
+        history = case_dir / summary.get("history", "history.csv")
+        if not history.is_file():
+            continue
         k = tuple(float(r[f"k{i}"]) for i in range(1, 5)) if r.get("k1") else None
-        cases.append({"name": r["case"], "history": _read_csv(case_dir / "history.csv"), "k": k,
+        cases.append({"name": r["case"], "history": _read_csv(history), "k": k,
                       "d": scene["wheel"]["diameter"], "gamma": scene["soil"]["gamma"]})
     loads = study.get("reference_loads_N") or []
     load_tag = f"{loads[0] / 1e3:g}kN" if loads else None
@@ -197,3 +200,53 @@ def write_report(directory) -> pathlib.Path:
     from rollsim.studies.study import atomic_write_text
     atomic_write_text(path, "\n".join(text))
     return path
+
+
+def run_report(directory) -> pathlib.Path:
+    """For one run directory: the computed force-sinkage curve over the bearing-capacity model's."""
+    from rollsim.scene import parse_scene
+    from rollsim.studies import bearing_capacity as bc
+    from rollsim.studies.study import atomic_write_text, model_inputs
+    out = pathlib.Path(directory)
+    summary = json.loads((out / "summary.json").read_text())
+    rows = _read_csv(out / "history.csv")
+    scene = parse_scene(_scene_input(summary["scene"]))
+    wheel, soil, opts = model_inputs(scene)
+    s = np.array([float(r["sinkage_m"]) for r in rows])
+    qv = np.array([float(r["QV_N"]) for r in rows])
+    plt = _plt()
+    fig, ax = plt.subplots(figsize=(6.5, 4.5))
+    s_model = np.linspace(0, max(s.max(initial=0), scene.loading.max_sinkage or 0), 200)[1:]
+    ax.plot(1e3 * s_model, bc.wheel_forces(s_model, wheel, soil, opts).QV / 1e3, "-", color="0.4",
+            label="bearing-capacity model")
+    ax.plot(1e3 * s, qv / 1e3, "o-", ms=3, color="C3", label=f"finite elements ({summary['status']})")
+    ax.set(xlabel="sinkage s (mm)", ylabel="Q_V (kN)",
+           title=f"{summary.get('protocol', '')}: d = {scene.wheel.diameter:g} m, b = {scene.wheel.width:g} m")
+    ax.grid(alpha=0.3)
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(out / "force_sinkage_vs_model.png", dpi=120)
+    plt.close(fig)
+    text = [f"# Run report: {out.name}", "", f"status **{summary['status']}**"
+            + (f" ({summary.get('reason')})" if summary.get("reason") else "")
+            + f", {summary.get('steps')} steps, {summary.get('newton_iterations')} Newton iterations, "
+            f"{summary.get('wall_time_s', 0):.1f} s on {summary.get('ranks')} rank(s), {summary.get('dofs')} dofs.",
+            "", "![force-sinkage vs model](force_sinkage_vs_model.png)", ""]
+    path = out / "report.md"
+    atomic_write_text(path, "\n".join(text))
+    return path
+
+
+def _scene_input(echo: dict) -> dict:
+    """A summary's scene echo (SI, angles in degrees, None for unset) back into scene-file form."""
+    def clean(obj):
+        if isinstance(obj, dict):
+            return {k: clean(v) for k, v in obj.items() if v is not None}
+        if isinstance(obj, list):
+            return [clean(v) for v in obj]
+        return obj
+    data = clean(echo)
+    for layer in data["soil"]["layers"]:
+        if "c" not in layer:
+            layer.pop("match", None)
+    return data

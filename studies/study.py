@@ -8,6 +8,9 @@ A study file (TOML)::
     reference_loads = ["53 kN", "133.5 kN"]       # sinkage is read off each curve at these loads
     ranks_per_case = 1                            # under mpirun: ranks that share one case
 
+    [set]                                         # scene keys applied to every case (not in names)
+    "model.accuracy" = "fast"
+
     [[sweep]]                                     # every [[sweep]] block multiplies the cases
     mode = "grid"                                 # grid (all combinations) | zip (side by side)
     "soil.layers[0].E" = ["20 MPa", "40 MPa"]
@@ -49,6 +52,7 @@ from rollsim.units import FORCE, InputError, to_si
 
 log = get_logger("study")
 RUNNERS = ("analytic", "fe")
+FE_COST_HINT = {"fast": "about 1 minute", "standard": "about 10-30 minutes", "accurate": "hours"}
 _INDEX = re.compile(r"^([A-Za-z_]\w*)(?:\[(\d+)\])?$")
 
 
@@ -164,7 +168,7 @@ def load_study(path) -> Study:
         raise InputError(str(path), f"cannot read the study file ({e.strerror})") from None
     except tomllib.TOMLDecodeError as e:
         raise InputError(str(path), f"not valid TOML: {e}") from None
-    allowed = {"base", "runner", "reference_loads", "ranks_per_case", "sweep"}
+    allowed = {"base", "runner", "reference_loads", "ranks_per_case", "set", "sweep"}
     for key in data:
         if key not in allowed:
             raise InputError(key, "unknown key")
@@ -177,6 +181,11 @@ def load_study(path) -> Study:
             raise InputError("base", f"cannot read the base scene {base_path}: {e}") from None
     if not isinstance(base, dict):
         raise InputError("base", "give a scene file path or an inline [base] table")
+    fixed = data.get("set", {})
+    if not isinstance(fixed, dict):
+        raise InputError("set", 'a table of scene keys applied to every case, e.g. "model.accuracy" = "fast"')
+    for key, value in fixed.items():
+        set_key(base, key, value)
     runner = data.get("runner", "analytic")
     if runner not in RUNNERS:
         raise InputError("runner", f"must be one of {', '.join(RUNNERS)}, got {runner!r}")
@@ -358,8 +367,33 @@ def analytic_runner(reference_loads) -> CaseRunner:
             lines += [f"{i + 1},{a:.9g},{b:.9g},{c:.9g},0" for i, (a, b, c) in enumerate(zip(s, f.QV, f.QH))]
             atomic_write_text(case_dir / "history.csv", "\n".join(lines) + "\n")
         return {"status": "ok", "runner": "analytic", "scene": scene.to_dict(), "ranks": comm.size,
-                "comparison": compare_with_model(scene, s, f.QV, reference_loads)}
+                "history": "history.csv", "comparison": compare_with_model(scene, s, f.QV, reference_loads)}
     return run
+
+
+def fe_runner(reference_loads, petsc_options: dict | None = None) -> CaseRunner:
+    """A case runner that runs the finite-element solver (``rollsim run``) into ``<case>/run``."""
+    def run(case: Case, case_dir: pathlib.Path, comm: MPI.Comm) -> dict:
+        from rollsim.solver.run import run_scene
+        run_dir = case_dir / "run"
+        summary = run_scene(case.scene, run_dir, comm, progress=False, petsc_options=petsc_options)
+        history = _read_history(run_dir / "history.csv") if comm.rank == 0 else None
+        history = comm.bcast(history, root=0)
+        result = {"status": summary["status"], "runner": "fe", "scene": case.scene.to_dict(), "ranks": comm.size,
+                  "history": "run/history.csv", "steps": summary["steps"], "dofs": summary["dofs"],
+                  "newton_iterations": summary["newton_iterations"]}
+        if summary["status"] != "ok":
+            result["reason"] = summary.get("reason", "")
+        if len(history[0]) >= 4:  # a failed run's partial curve is still compared
+            result["comparison"] = compare_with_model(case.scene, *history, reference_loads)
+        return result
+    return run
+
+
+def _read_history(path: pathlib.Path):
+    with path.open(newline="") as f:
+        rows = [r for r in csv.DictReader(f) if float(r["sinkage_m"]) > 0]
+    return np.array([float(r["sinkage_m"]) for r in rows]), np.array([float(r["QV_N"]) for r in rows])
 
 
 def dry_run_lines(study: Study) -> list[str]:
@@ -369,4 +403,8 @@ def dry_run_lines(study: Study) -> list[str]:
         lines.append(f"  {c.name}: " + ", ".join(f"{k} = {v}" for k, v in c.overrides.items()))
     if study.runner == "analytic":
         lines.append("estimated cost: well under a second per case (bearing-capacity model)")
+    else:
+        per_case = {c.scene.model.accuracy for c in study.cases}
+        lines.append("estimated cost per case on one rank (indentation to s/d = 0.1, development machine): "
+                     + ", ".join(f"{a}: {FE_COST_HINT[a]}" for a in sorted(per_case)))
     return lines

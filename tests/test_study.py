@@ -173,3 +173,10 @@ def test_dry_run_lists_cases(tmp_path, capsys):
                  str(tmp_path / "o"), "--dry-run"]) == 0
     out = capsys.readouterr().out
     assert "12 cases" in out and "case-12:" in out and not (tmp_path / "o").exists()
+
+
+def test_set_applies_to_every_case_without_naming_it(tmp_mpi_path):
+    study = st.load_study(write_study(tmp_mpi_path, '[set]\n"model.accuracy" = "fast"\n"wheel.friction" = 0.4\n'
+                                      + GRID.split("\n", 2)[2]))
+    assert all(c.scene.model.accuracy == "fast" and c.name.startswith("E=") for c in study.cases)
+    assert {c.scene.wheel.friction for c in study.cases} == {0.4, 0.8}  # the sweep wins over [set]

@@ -1,9 +1,15 @@
 #!/usr/bin/env bash
-# The main job: installs on first use, then runs the default study and ends in a report.
-# Until the finite-element study lands, this is the analytic design study.
-#   tools/main.sh [OUT_DIR]      (default out/design)
+# The main job: installs on first use, runs the default study and ends in a report.
+#   tools/main.sh [OUT_DIR]          finite-element study studies/examples/main.toml (default out/main)
+#   tools/main.sh design [OUT_DIR]   the analytic design study (default out/design)
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/env.sh"
-out=${1:-$_rollsim_root/out/design}
-rollsim design --out "$out"
+if [ "${1:-}" = design ]; then
+  out=${2:-$_rollsim_root/out/design}
+  rollsim design --out "$out"
+else
+  out=${1:-$_rollsim_root/out/main}
+  ranks=$(nproc); [ "$ranks" -gt 4 ] && ranks=4  # the study has four cases
+  mpirun -n "$ranks" --oversubscribe rollsim study "$_rollsim_root/studies/examples/main.toml" --out "$out"
+fi
 echo "report: $out/report.md"

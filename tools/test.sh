@@ -7,10 +7,16 @@ cd "$_rollsim_root"
 echo "== serial" >&2
 python -m pytest "$@"
 echo "== mpirun -n 2" >&2
-# Both ranks run the suite; rank 0 reports, the other rank's log is kept for failures.
-log=$(mktemp -t rollsim-rank1.XXXXXX)
-if ! mpirun -n 2 --oversubscribe bash -c '
-    if [ "${OMPI_COMM_WORLD_RANK:-0}" = 0 ]; then exec python -m pytest "$@";
-    else exec python -m pytest -q -p no:cacheprovider "$@" > "'"$log"'" 2>&1; fi' _ "$@"; then
-  echo "== rank 1 log ($log):" >&2; tail -n 60 "$log" >&2; exit 1
+# Each rank writes to its own file: Open MPI's forwarding of a busy stdout/stderr can
+# make a rank's write fail and kill it. Rank 0's log (ending in pytest's summary) is
+# printed afterwards; the other rank's log is shown when the run fails.
+logs=$(mktemp -d -t rollsim-mpi.XXXXXX)
+status=0
+mpirun -n 2 --oversubscribe bash -c '
+    if [ "${OMPI_COMM_WORLD_RANK:-0}" = 0 ]; then exec python -m pytest "$@" > "'"$logs"'/rank0.log" 2>&1;
+    else exec python -m pytest -q -p no:cacheprovider "$@" > "'"$logs"'/rank1.log" 2>&1; fi' _ "$@" || status=$?
+if [ "$status" -ne 0 ]; then
+  echo "== rank 1 log ($logs/rank1.log):" >&2; tail -n 60 "$logs/rank1.log" >&2
 fi
+cat "$logs/rank0.log"
+exit "$status"

@@ -1,0 +1,98 @@
+"""3D rigid-wheel indentation (quarter model) for report cases: Q_V(s) to s/d = 0.1, presets compared.
+
+    python benchmarks/bench_indentation.py --cases 2 5 --accuracy fast standard [accurate] --out bench_indentation.json
+    python benchmarks/bench_indentation.py --c0 --accuracy fast standard     # c = 0, phi = 35/40/45 deg
+
+Prints Q_V at s/d = 0.02, 0.05, 0.1, the bearing-capacity model (indentation, D = s) with the
+case's compression-matched (c, phi), steps, Newton iterations, cuts and wall time, and the
+relative difference of each preset from the finest one run.
+"""
+from __future__ import annotations
+
+import argparse
+import csv
+import json
+import math
+import pathlib
+import time
+
+from mpi4py import MPI
+
+from rollsim.geometry import CylinderWheel, MeshOptions, build_soil_block, indentation_block
+from rollsim.solver import DruckerPrager, SolverDivergedError, VonMises
+from rollsim.solver.indentation import WheelIndentation
+from rollsim.studies.bearing_capacity import Options, Soil, Wheel, wheel_forces
+
+CASES = pathlib.Path(__file__).parents[1] / "studies" / "data" / "cases_indentation.csv"
+STOPS = (0.01, 0.02, 0.03, 0.05, 0.08, 0.1)
+
+
+def case_row(n):
+    return next(r for r in csv.DictReader(CASES.open()) if int(r["case"]) == n)
+
+
+def run(comm, accuracy, mat, d, b, gamma, mu, s_end=0.1):
+    t0 = time.perf_counter()
+    tm = build_soil_block(comm, indentation_block(d), MeshOptions.from_accuracy(d, accuracy))
+    ind = WheelIndentation(tm, CylinderWheel(d, b, b / 12), mat, gamma=gamma, friction=mu)
+    ind.gravity_step()
+    status = "ok"
+    try:
+        ind.push(s_end * d, stops=[r * d for r in STOPS])
+    except SolverDivergedError as err:
+        status = f"failed: {err}"
+    q = {f"{r:g}": st.QV for r in STOPS for st in ind.steps if abs(st.sinkage - r * d) < 1e-9}
+    return {"accuracy": accuracy, "cells": tm.stats.cells, "dofs": ind.n_dofs, "status": status,
+            "steps": len(ind.steps), "newton_iterations": ind.newton_iterations, "cuts": ind.cuts,
+            "time_s": comm.allreduce(time.perf_counter() - t0, op=MPI.MAX), "QV": q,
+            "curve": [(st.sinkage, st.QV) for st in ind.steps]}
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--cases", type=int, nargs="*", default=[2, 5])
+    ap.add_argument("--accuracy", nargs="+", default=["fast", "standard"])
+    ap.add_argument("--c0", action="store_true", help="c = 0 soils (phi 35, 40, 45 deg) instead of the cases")
+    ap.add_argument("--out", default=None)
+    args = ap.parse_args()
+    comm = MPI.COMM_WORLD
+    results = []
+    jobs = []
+    if args.c0:
+        for phi in (35, 40, 45):
+            mat = DruckerPrager.from_mohr_coulomb(40e6, 0.35, 0.0, math.radians(phi), psi=0.0)
+            jobs.append((f"c=0 phi={phi}", mat, 1.524, 0.4572, 20e3, 0.8, 0.0, math.radians(phi)))
+    for n in ([] if args.c0 else args.cases):
+        r = case_row(n)
+        d, b, E, nu = float(r["d_m"]), float(r["b_m"]), float(r["E_MPa"]) * 1e6, float(r["nu"])
+        phi_dp, c_dp = math.radians(float(r["phi_dp_deg"])), float(r["c_dp_kPa"]) * 1e3
+        mat = VonMises(E=E, nu=nu, yield_stress=c_dp) if phi_dp == 0 else DruckerPrager(E=E, nu=nu, phi_dp=phi_dp, c_dp=c_dp)
+        jobs.append((f"case {n}", mat, d, b, float(r["gamma_kN_m3"]) * 1e3, float(r["mu"]),
+                     float(r["c_mc_compression_kPa"]) * 1e3, math.radians(float(r["phi_mc_compression_deg"]))))
+    for name, mat, d, b, gamma, mu, c, phi in jobs:
+        per = []
+        for acc in args.accuracy:
+            res = run(comm, acc, mat, d, b, gamma, mu)
+            res["name"] = name
+            res["bearing_capacity_QV"] = {f"{r:g}": float(wheel_forces(r * d, Wheel(d, b), Soil(c, phi, gamma),
+                                                                       Options(mode="indentation")).QV) for r in STOPS}
+            per.append(res)
+            if comm.rank == 0:
+                qs = "  ".join(f"s/d={k}: {v / 1e3:8.2f} kN (BC {res['bearing_capacity_QV'][k] / 1e3:7.2f})"
+                               for k, v in res["QV"].items() if k in ("0.02", "0.05", "0.1"))
+                print(f"{name:14s} {acc:9s} cells {res['cells']:6d} dofs {res['dofs']:7d} steps {res['steps']:3d} "
+                      f"its {res['newton_iterations']:4d} cuts {res['cuts']:3d} {res['time_s']:7.1f} s {res['status'][:60]}\n   {qs}",
+                      flush=True)
+        finest = per[-1]
+        for res in per:
+            res["rel_to_finest"] = {k: res["QV"][k] / finest["QV"][k] - 1 for k in res["QV"] if k in finest["QV"]}
+            if comm.rank == 0 and res is not finest:
+                print(f"   {res['accuracy']} vs {finest['accuracy']}: " +
+                      "  ".join(f"s/d={k}: {v:+.2%}" for k, v in res["rel_to_finest"].items()))
+        results += per
+    if args.out and comm.rank == 0:
+        pathlib.Path(args.out).write_text(json.dumps(results, indent=2))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,152 @@
+"""Robustness benchmark of rollsim.solver: purely frictional soil, smoothed Mohr-Coulomb, extremes.
+
+    .venv/bin/python benchmarks/bench_solver_frictional.py [--out bench_solver_frictional.json]
+        [--quick]        meshes n <= 8 (default n <= 16)
+        [--before]       also run the old stepping (predictor 'none') at n = 8 (~12 min)
+
+Cases (smooth rigid strip, half model 2.5B x 2.5B, P2 triangles, crossed, graded; B = 1 m):
+  1. c = 0, phi = 30 deg (associated DP, plane-strain match), gamma = 18 kN/m3, K0 = 1 - sin(phi):
+     N_gamma = p_lim / (gamma B / 2) vs Martin (2005) exact smooth-footing value 7.65; steps, cuts,
+     Newton iterations with the extrapolated predictor and without it (the old stepping).
+  2. weightless associated smoothed Mohr-Coulomb (Abbo-Sloan, theta_T = 29 and 25 deg),
+     phi = 20 deg: p_lim vs the exact c N_c; plane-strain-matched Drucker-Prager alongside.
+  3. extremes: nu = 0.3 / 0.49 / 0.499 (von Mises, n = 4); phi_dp = 60 deg with psi = 60 / 0;
+     two Tresca layers with a 30:1 strength contrast (LayeredMaterial).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import time
+
+import numpy as np
+from mpi4py import MPI
+
+from rollsim.log import setup_logging
+from rollsim.solver import (DruckerPrager, SmoothedMohrCoulomb, SolverDivergedError, StepControl, StripFooting,
+                            jaky_k0, prandtl_nc, strip_footing_mesh, von_mises_from_tresca)
+from rollsim.solver.layered_material import LayeredMaterial
+
+E, NU, C, B, GAMMA = 50e6, 0.3, 100e3, 1.0, 18e3
+DEG = math.pi / 180
+EXTREME_CTL = StepControl(dt=0.05, dt_max=0.2, dt_min=1e-5, max_wall_time=300, predictor="extrapolate")
+N_GAMMA_MARTIN = 7.65      # smooth strip, phi = 30 deg; Martin (2005), Proc. 11th IACMAG, vol. 4, 441-450
+
+
+def footing(comm, material, n, settlement, control=None, **kw):
+    t0 = time.perf_counter()
+    fo = StripFooting(strip_footing_mesh(comm, B, n), material, B, **kw)
+    out = {"n": n, "dofs": fo.n_dofs}
+    try:
+        res = fo.run(settlement, control)
+        out.update(ok=True, limit_pressure=res.limit_pressure, steps=len(res.iterations), cuts=int(sum(res.cuts)),
+                   newton_iterations=int(fo.problem.timings["iterations"]), max_iterations=max(res.iterations),
+                   plateau=res.pressure[-1] / res.pressure[-2] - 1, pressure=res.pressure,
+                   settlement=res.displacement,
+                   apex_max=max(h.counts.get("apex", 0) for h in res.history))
+    except SolverDivergedError as err:
+        out.update(ok=False, error=str(err), steps=len(err.history), t_failed=err.last_converged.t,
+                   limit_pressure=fo.pressure())
+    out["wall_time"] = time.perf_counter() - t0
+    return out
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--out", default="bench_solver_frictional.json")
+    ap.add_argument("--quick", action="store_true")
+    ap.add_argument("--before", action="store_true")
+    ap.add_argument("-v", "--verbose", action="store_true")
+    args = ap.parse_args()
+    comm = MPI.COMM_WORLD
+    setup_logging(comm, verbose=args.verbose, quiet=not args.verbose)
+    say = print if comm.rank == 0 else (lambda *a, **k: None)
+    ns = (2, 4, 8) if args.quick else (2, 4, 8, 16)
+    out = {"ranks": comm.size, "cases": {}}
+
+    # 1. purely frictional soil
+    mat = DruckerPrager.from_mohr_coulomb(E, NU, 0.0, 30 * DEG, psi=None, matching="plane_strain")
+    say(f"1. c = 0, phi = 30 deg, gamma = 18 kN/m3, K0 = 1 - sin(phi): N_gamma vs Martin (2005) smooth "
+        f"{N_GAMMA_MARTIN}   [{comm.size} rank(s)]")
+    say(f"{'n':>3} {'predictor':>11} {'dofs':>6} {'N_gamma':>8} {'error':>7} {'steps':>5} {'cuts':>4} "
+        f"{'Newton':>6} {'max':>3} {'wall s':>7}")
+    rows = []
+    for n in ns:
+        preds = ["extrapolate"] + (["none"] if n <= 4 or (n == 8 and args.before) else [])
+        for pred in preds:
+            ctl = StepControl(dt=0.05, dt_max=0.1, dt_min=1e-6, max_cuts=12, predictor=pred)
+            r = footing(comm, mat, n, 0.03, ctl, unit_weight=GAMMA, K0=jaky_k0(30 * DEG))
+            r["predictor"] = pred
+            r["N_gamma"] = r["limit_pressure"] / (0.5 * GAMMA * B)
+            r["error"] = r["N_gamma"] / N_GAMMA_MARTIN - 1
+            rows.append(r)
+            say(f"{n:3d} {pred:>11} {r['dofs']:6d} {r['N_gamma']:8.4f} {100 * r['error']:6.2f}% {r['steps']:5d} "
+                f"{r.get('cuts', -1):4d} {r.get('newton_iterations', -1):6d} {r.get('max_iterations', -1):3d} "
+                f"{r['wall_time']:7.1f}" + ("" if r["ok"] else "  FAILED: " + r["error"]))
+    ex = [r for r in rows if r["predictor"] == "extrapolate" and r["ok"]]
+    if len(ex) >= 3:
+        a, b, c = (r["N_gamma"] for r in ex[-3:])
+        p = math.log((a - b) / (b - c)) / math.log(2)
+        rich = c - (b - c) / (2 ** p - 1)
+        out["richardson"] = {"rate": p, "N_gamma": rich}
+        say(f"  Richardson from the last three meshes: rate {p:.2f}, N_gamma -> {rich:.3f} "
+            f"({100 * (rich / N_GAMMA_MARTIN - 1):+.2f} % vs Martin)")
+    out["cases"]["c0_gravity_phi30"] = {"reference": N_GAMMA_MARTIN, "runs": rows}
+
+    # 2. smoothed Mohr-Coulomb
+    phi = 20 * DEG
+    exact = C * prandtl_nc(phi)
+    say(f"2. weightless associated phi = 20 deg: exact c Nc = {exact / C:.4f} c")
+    rows = []
+    for label, m in (("SMC theta_T=29", SmoothedMohrCoulomb(E, NU, C, phi, dilation=phi)),
+                     ("SMC theta_T=25", SmoothedMohrCoulomb(E, NU, C, phi, dilation=phi, transition_angle=25 * DEG)),
+                     ("DP plane-strain", DruckerPrager.from_mohr_coulomb(E, NU, C, phi, psi=None,
+                                                                         matching="plane_strain"))):
+        for n in ns[:3]:
+            r = footing(comm, m, n, 0.2)
+            r["model"], r["error"] = label, r["limit_pressure"] / exact - 1
+            rows.append(r)
+            say(f"  {label:>16} n={n:2d}: p/c = {r['limit_pressure'] / C:8.4f} ({100 * r['error']:+.2f} %), "
+                f"steps {r['steps']}, cuts {r['cuts']}, Newton {r['newton_iterations']}, wall {r['wall_time']:.1f} s")
+    out["cases"]["smoothed_mc_phi20"] = {"exact": exact, "runs": rows}
+
+    # 3. extremes
+    say("3. extremes (n = 4)")
+    rows = []
+    for nu in (0.3, 0.49, 0.499):
+        r = footing(comm, von_mises_from_tresca(E, nu, C), 4, 0.1)
+        r["case"], r["error"] = f"von Mises nu={nu}", r["limit_pressure"] / ((2 + math.pi) * C) - 1
+        rows.append(r)
+        say(f"  {r['case']:>24}: p/((2+pi)c) - 1 = {100 * r['error']:+.2f} %, steps {r['steps']}, "
+            f"Newton {r['newton_iterations']}, wall {r['wall_time']:.1f} s")
+    for psi in (60.0, 0.0):
+        m = DruckerPrager(E, NU, phi_dp=60 * DEG, c_dp=C, dilation=psi * DEG)
+        r = footing(comm, m, 4, 0.1, EXTREME_CTL)
+        r["case"] = f"DP phi_dp=60 psi={psi:g}"
+        rows.append(r)
+        say(f"  {r['case']:>24}: " + (f"converged, p = {r['limit_pressure'] / C:.2f} c at s = 0.1 B (rising), "
+                                      f"steps {r['steps']}, cuts {r['cuts']}" if r["ok"] else
+                                      f"SolverDivergedError at t = {r['t_failed']:.4f}, p = "
+                                      f"{r['limit_pressure'] / C:.2f} c: {r['error']}")
+            + f", wall {r['wall_time']:.1f} s")
+    for top, bot, settle in ((10e3, 300e3, 0.02), (300e3, 10e3, 0.1)):
+        m = LayeredMaterial([von_mises_from_tresca(E, NU, top), von_mises_from_tresca(E, NU, bot)],
+                            lambda x: (x[:, 1] < -0.25 * B).astype(int))
+        r = footing(comm, m, 4, settle, EXTREME_CTL)
+        r["case"] = f"Tresca {top / 1e3:g} kPa over {bot / 1e3:g} kPa, H = 0.25 B"
+        r["ratio_to_weak"] = r["limit_pressure"] / ((2 + math.pi) * min(top, bot))
+        rows.append(r)
+        say(f"  {r['case']:>24}: p = {r['ratio_to_weak']:.3f} (2+pi) c_weak at s = {settle} B "
+            f"(last increment {100 * r.get('plateau', float('nan')):.2f} %), steps {r['steps']}, "
+            f"cuts {r.get('cuts')}, wall {r['wall_time']:.1f} s")
+    out["cases"]["extremes"] = rows
+
+    if comm.rank == 0:
+        with open(args.out, "w") as fh:
+            json.dump(out, fh, indent=1, default=float)
+        print(f"wrote {args.out}")
+
+
+if __name__ == "__main__":
+    main()

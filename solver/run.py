@@ -1,0 +1,274 @@
+"""``run_scene``: one finite-element simulation of a scene (``rollsim run SCENE.toml --out DIR``).
+
+Builds the soil mesh (``rollsim.geometry``; quarter block for the centred indentation wheel on
+horizontally layered soil, forces reported for the whole wheel), the materials of the layers,
+the rigid wheel and its frictional contact, runs the loading protocol and writes the run
+directory of ``shared/spec/interfaces.md``:
+
+* ``summary.json`` - scene echo (SI, angles in degrees), ``status`` ``"ok"`` | ``"failed"`` (+
+  ``reason``), wall time, ranks, dofs, cells, steps, Newton iterations, step cuts, the result
+  (``QV_N`` at the final sinkage, ``QV_at_s_over_d``), the model (symmetry, penalty) and, on
+  failure, diagnostics;
+* ``history.csv`` - one row per converged step (rewritten after every step, so a killed run keeps
+  its history);
+* ``fields/`` - ``fields.xdmf`` (time series, time = sinkage in m) and ``deformed.xdmf``;
+* ``force_sinkage.png``.
+
+Files are written by rank 0 (XDMF collectively) through a temporary name and renamed, so a
+reader never sees half a file.  ``summary.json`` is written last.
+"""
+from __future__ import annotations
+
+import csv
+import io
+import json
+import math
+import os
+import pathlib
+import time
+import traceback
+
+import numpy as np
+from mpi4py import MPI
+
+from rollsim.log import get_logger
+
+__all__ = ["run_scene", "layer_material", "HISTORY_COLUMNS", "scene_mesh"]
+
+log = get_logger("run")
+
+HISTORY_COLUMNS = ["step", "sinkage_m", "s_over_d", "QV_N", "QH_N", "travel_m", "moment_Nm", "contact_area_m2",
+                   "max_penetration_m", "newton_iterations", "cuts", "plastic_points", "wall_time_s"]
+
+#: s/d values at which Q_V is always computed (step boundaries) and reported in summary.json
+REPORT_S_OVER_D = (0.01, 0.02, 0.03, 0.05, 0.08, 0.1)
+
+_MATCH = {"compression": "compression", "extension": "extension", "plane-strain": "plane_strain"}
+
+
+def layer_material(layer, index: int = 0):
+    """``LayerSpec`` -> ``VonMises`` / ``DruckerPrager`` (SI, radians).
+
+    von Mises: yield stress ``q_y = c_dp`` if given, else from the cohesion ``c`` by the layer's
+    ``match`` (compression / extension: ``q_y = 2 c``; plane strain: ``sqrt(3) c``).
+    Drucker-Prager: ``phi_dp``/``c_dp``/``dilation`` as given, or matched to ``c``/``phi`` (dilation
+    angle mapped with the same matching).  ``mohr-coulomb``: the smoothed (Abbo-Sloan) surface of
+    ``solver/smoothed_mc.py`` when available, else a ``ValueError`` naming the layer.
+    """
+    from .materials import DruckerPrager, VonMises, mc_to_dp
+    key = f"soil.layers[{index}]"
+    if layer.model == "von-mises":
+        q_y = layer.c_dp if layer.c_dp is not None else mc_to_dp(layer.c, 0.0, _MATCH[layer.match])[1]
+        return VonMises(E=layer.E, nu=layer.nu, yield_stress=q_y)
+    if layer.model == "drucker-prager":
+        if layer.phi_dp is not None:
+            return DruckerPrager(E=layer.E, nu=layer.nu, phi_dp=layer.phi_dp, c_dp=layer.c_dp,
+                                 dilation=layer.dilation)
+        return DruckerPrager.from_mohr_coulomb(layer.E, layer.nu, layer.c, layer.phi, psi=layer.dilation,
+                                               matching=_MATCH[layer.match])
+    if layer.model == "mohr-coulomb":
+        try:
+            from .smoothed_mc import SmoothedMohrCoulomb
+            return SmoothedMohrCoulomb(E=layer.E, nu=layer.nu, c=layer.c, phi=layer.phi, dilation=layer.dilation)
+        except (ImportError, TypeError) as err:
+            raise ValueError(f"{key}.model: 'mohr-coulomb' is not available in the finite-element solver "
+                             f"({err}); use von-mises or drucker-prager") from None
+    raise ValueError(f"{key}.model: {layer.model!r} is not available in the finite-element solver "
+                     "(use von-mises, drucker-prager or mohr-coulomb)")
+
+
+def scene_mesh(scene, comm: MPI.Comm):
+    """Quarter indentation block for the scene (layers from the scene, accuracy preset)."""
+    from rollsim.geometry import MeshOptions, build_soil_block, indentation_block
+    d = scene.wheel.diameter
+    thick = [layer.thickness for layer in scene.soil.layers[:-1]]
+    depth = max(1.5, sum(thick) / d + 0.5)
+    block = indentation_block(d, depth=depth, cut="quarter", layers=tuple(t / d for t in thick))
+    return build_soil_block(comm, block, MeshOptions.from_accuracy(d, scene.model.accuracy))
+
+
+def _wheel(spec):
+    from rollsim.geometry import CylinderWheel, TorusWheel
+    if spec.type != "rigid":
+        raise ValueError(f"wheel.type: {spec.type!r} wheels are not available in the finite-element solver "
+                         "yet (use rigid)")
+    if spec.shape == "torus":
+        return TorusWheel(spec.diameter, spec.width)
+    return CylinderWheel(spec.diameter, spec.width, spec.fillet)
+
+
+def _atomic_write(path: pathlib.Path, data, binary: bool = False) -> None:
+    tmp = path.with_name(f".{path.name}.tmp")
+    with open(tmp, "wb" if binary else "w") as f:
+        f.write(data)
+    os.replace(tmp, path)
+
+
+def _history_csv(rows) -> str:
+    buf = io.StringIO()
+    w = csv.DictWriter(buf, fieldnames=HISTORY_COLUMNS, lineterminator="\n")
+    w.writeheader()
+    for r in rows:
+        w.writerow({k: (f"{v:.10g}" if isinstance(v, float) else v) for k, v in r.items()})
+    return buf.getvalue()
+
+
+def _plot(path: pathlib.Path, rows, scene, status: str) -> None:
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    d = scene.wheel.diameter
+    s = [0.0] + [r["sinkage_m"] for r in rows]
+    q = [0.0] + [r["QV_N"] / 1e3 for r in rows]
+    fig, ax = plt.subplots(figsize=(6, 4.2))
+    ax.plot(s, q, "o-", ms=3, label=f"FE indentation ({scene.model.accuracy})")
+    ax.set_xlabel("sinkage s (m)")
+    ax.set_ylabel("Q_V (kN)")
+    ax.grid(alpha=0.3)
+    sec = ax.secondary_xaxis("top", functions=(lambda x: x / d, lambda r: r * d))
+    sec.set_xlabel("s/d")
+    ax.set_title(f"rigid {scene.wheel.shape} d = {d:g} m, b = {scene.wheel.width:g} m"
+                 + ("" if status == "ok" else f"  [{status}]"), fontsize=10)
+    ax.legend(loc="lower right")
+    fig.tight_layout()
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=120)
+    plt.close(fig)
+    _atomic_write(path, buf.getvalue(), binary=True)
+
+
+def run_scene(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_options: dict | None = None,
+              write_fields: bool = True, penalty: float | None = None) -> dict:
+    """Run ``scene`` on ``comm`` and write the run directory ``out_dir``; returns the summary dict.
+
+    Only ``loading.protocol = "indentation"`` is available here (rolling protocols: ``ValueError``
+    naming the key).  A solver failure after step cutting does not raise: the summary has
+    ``status = "failed"`` and ``reason``, and the last converged state is written.
+    """
+    from .indentation import WheelIndentation
+    from .stepping import SolverDivergedError
+
+    if scene.loading.protocol != "indentation":
+        raise ValueError(f"loading.protocol: {scene.loading.protocol!r} is not supported by run_scene yet "
+                         "(rolling protocols are a separate solver issue); supported: 'indentation'")
+    wheel = _wheel(scene.wheel)
+    materials = {k: layer_material(layer, k - 1) for k, layer in enumerate(scene.soil.layers, start=1)}
+    out = pathlib.Path(out_dir)
+    root = comm.rank == 0
+    if root:
+        (out / "fields").mkdir(parents=True, exist_ok=True)
+    comm.barrier()
+    t_start = time.perf_counter()
+    d = scene.wheel.diameter
+    s_max = scene.loading.max_sinkage
+
+    tagged = scene_mesh(scene, comm)
+    mats = materials if len(materials) > 1 else materials[1]
+    ind = WheelIndentation(tagged, wheel, mats, gamma=scene.soil.gamma, friction=scene.wheel.friction,
+                           petsc_options=petsc_options, penalty=penalty)
+    writer = None
+    if write_fields:
+        from .fields import FieldWriter
+        writer = FieldWriter(ind.problem, out / "fields", cell_tags=tagged.cell_tags)
+    rows: list[dict] = []
+
+    def on_step(st):
+        row = {"step": st.step, "sinkage_m": st.sinkage, "s_over_d": st.sinkage / d, "QV_N": st.QV, "QH_N": st.QH,
+               "travel_m": 0.0, "moment_Nm": st.moment, "contact_area_m2": st.contact_area,
+               "max_penetration_m": st.max_penetration, "newton_iterations": st.iterations, "cuts": st.cuts,
+               "plastic_points": st.plastic, "wall_time_s": time.perf_counter() - t_start}
+        rows.append(row)
+        if writer is not None:
+            writer.write(st.sinkage)
+        if root:
+            _atomic_write(out / "history.csv", _history_csv(rows))
+            if progress:
+                log.info("step %3d  s = %.5f m (s/d = %.4f)  Q_V = %10.2f kN  Newton its %d", st.step, st.sinkage,
+                         st.sinkage / d, st.QV / 1e3, st.iterations)
+
+    status, reason, diagnostics = "ok", "", {}
+    try:
+        if progress and root:
+            log.info("indentation: %s wheel d = %g m, %d layer(s), %s mesh: %d cells, %d dofs, %d rank(s)",
+                     scene.wheel.shape, d, len(materials), scene.model.accuracy, tagged.stats.cells, ind.n_dofs,
+                     comm.size)
+        ind.gravity_step()
+        stops = [r * d for r in REPORT_S_OVER_D if r * d < s_max]
+        ind.push(s_max, stops=stops, on_step=on_step)
+    except SolverDivergedError as err:
+        status, reason = "failed", str(err)
+        hist = getattr(err, "history", None) or []
+        last = hist[-1] if hist else None
+        diagnostics = {"last_converged_sinkage_m": ind.sinkage,
+                       "last_step_residual_norms": list(last.residual_norms) if last else [],
+                       "step_cuts_total": ind.cuts}
+        log.warning("run failed: %s", reason)
+    except Exception as err:          # noqa: BLE001 - report, never hang, then re-raise below
+        status, reason = "failed", f"{type(err).__name__}: {err}"
+        diagnostics = {"traceback": traceback.format_exc()}
+        log.error("run failed: %s", reason)
+    # sync the status: every rank must agree (a rank-local exception would otherwise hang others)
+    statuses = comm.allgather(status)
+    if "failed" in statuses and status == "ok":
+        status, reason = "failed", "failed on another rank"
+    if writer is not None:
+        try:
+            writer.write_deformed()
+        finally:
+            writer.close()
+
+    wall = comm.allreduce(time.perf_counter() - t_start, op=MPI.MAX)
+    qv_at = {}
+    for r in REPORT_S_OVER_D:
+        hit = [row["QV_N"] for row in rows if abs(row["s_over_d"] - r) < 1e-9]
+        if hit:
+            qv_at[f"{r:g}"] = hit[0]
+    ct = ind.contact
+    summary = {
+        "status": status,
+        "reason": reason,
+        "protocol": scene.loading.protocol,
+        "scene": scene.to_dict(),
+        "wall_time_s": wall,
+        "ranks": comm.size,
+        "dofs": ind.n_dofs,
+        "cells": tagged.stats.cells,
+        "steps": len(rows),
+        "newton_iterations": ind.newton_iterations,
+        "step_cuts": ind.cuts,
+        "sinkage_m": rows[-1]["sinkage_m"] if rows else 0.0,
+        "QV_N": rows[-1]["QV_N"] if rows else 0.0,
+        "QH_N": rows[-1]["QH_N"] if rows else 0.0,
+        "max_QV_N": max((row["QV_N"] for row in rows), default=0.0),
+        "QV_at_s_over_d": qv_at,
+        "model": {"symmetry": {4: "quarter", 2: "half", 1: "full"}[ind.factor], "symmetry_factor": ind.factor,
+                  "accuracy": scene.model.accuracy, "displacement_degree": ind.problem.degree,
+                  "contact": {"method": "penalty", "alpha": ct.alpha, "kappa_Pa_per_m": ct.kappa, "h_m": ct.h,
+                              "friction": ct.friction}},
+        "files": {"history": "history.csv", "fields": ["fields/fields.xdmf", "fields/deformed.xdmf"]
+                  if write_fields else [], "plot": "force_sinkage.png"},
+    }
+    if diagnostics:
+        summary["diagnostics"] = diagnostics
+    if root:
+        _atomic_write(out / "history.csv", _history_csv(rows))
+        try:
+            _plot(out / "force_sinkage.png", rows, scene, status)
+        except Exception as err:   # noqa: BLE001 - a plot must not lose the run
+            log.warning("force-sinkage plot failed: %s", err)
+        _atomic_write(out / "summary.json", json.dumps(summary, indent=2, default=_json_default) + "\n")
+        if progress:
+            log.info("%s: %d steps, %d Newton iterations, %.1f s -> %s", status, len(rows), ind.newton_iterations,
+                     wall, out)
+    comm.barrier()
+    return summary
+
+
+def _json_default(obj):
+    if isinstance(obj, (np.floating, np.integer)):
+        return obj.item()
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    return str(obj)

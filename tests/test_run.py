@@ -1,0 +1,103 @@
+"""run_scene (solver/run.py): the run directory of shared/spec/interfaces.md, failures, protocols."""
+from __future__ import annotations
+
+import csv
+import dataclasses
+import json
+import math
+
+import pytest
+
+from rollsim.scene import load_scene, parse_scene
+from rollsim.solver.run import HISTORY_COLUMNS, layer_material, run_scene
+
+
+def _scene(max_sinkage="0.03 m", **layer):
+    lay = {"model": "von-mises", "E": "40 MPa", "nu": 0.35, "c_dp": "200 kPa"}
+    lay.update(layer)
+    return parse_scene({"wheel": {"diameter": "1.524 m", "width": "0.4572 m", "friction": 0.8},
+                        "soil": {"gamma": "20 kN/m^3", "layers": [lay]},
+                        "loading": {"protocol": "indentation", "max_sinkage": max_sinkage},
+                        "model": {"accuracy": "fast"}})
+
+
+def test_run_scene_writes_the_run_directory(comm, tmp_mpi_path):
+    scene = _scene()
+    summary = run_scene(scene, tmp_mpi_path, comm, progress=False)
+    assert summary["status"] == "ok", summary.get("reason")
+    assert summary["ranks"] == comm.size and summary["dofs"] > 0 and summary["steps"] >= 2
+    assert summary["model"]["symmetry"] == "quarter" and summary["model"]["symmetry_factor"] == 4
+    if comm.rank == 0:
+        s = json.loads((tmp_mpi_path / "summary.json").read_text())
+        assert s["status"] == "ok" and s["scene"] == scene.to_dict()
+        for key in ("wall_time_s", "ranks", "dofs", "steps", "newton_iterations"):
+            assert key in s
+        rows = list(csv.DictReader((tmp_mpi_path / "history.csv").open()))
+        assert list(rows[0]) == HISTORY_COLUMNS
+        assert len(rows) == s["steps"]
+        assert float(rows[-1]["sinkage_m"]) == pytest.approx(0.03)
+        assert float(rows[-1]["QV_N"]) == pytest.approx(s["QV_N"])
+        assert s["QV_at_s_over_d"]["0.01"] > 0                 # report stops are step boundaries
+        assert (tmp_mpi_path / "force_sinkage.png").stat().st_size > 1000
+        for name in ("fields.xdmf", "fields.h5", "deformed.xdmf", "deformed.h5"):
+            assert (tmp_mpi_path / "fields" / name).exists(), name
+        assert not list(tmp_mpi_path.glob(".*.tmp"))
+    comm.barrier()
+
+
+@pytest.mark.serial
+def test_fields_readable_by_pyvista(tmp_path, comm):
+    pv = pytest.importorskip("pyvista")
+    run_scene(_scene("0.01 m"), tmp_path, comm, progress=False)
+    reader = pv.get_reader(str(tmp_path / "fields" / "fields.xdmf"))
+    reader.set_active_time_point(len(reader.time_values) - 1)
+    blocks = reader.read()             # DOLFINx 0.5 XDMF: one grid per function
+    names = {n for i in range(blocks.n_blocks) if blocks[i] is not None for n in blocks[i].array_names}
+    assert {"displacement", "equivalent_plastic_strain", "q"} <= names
+    assert blocks["mesh"].n_cells > 0
+    deformed = pv.get_reader(str(tmp_path / "fields" / "deformed.xdmf")).read()
+    assert deformed.bounds[5] > 0            # the surface beside the wheel heaves: moved vertices
+    assert deformed.bounds[4] == pytest.approx(-1.5 * 1.524)
+
+
+def test_rolling_protocol_is_refused_with_the_key(comm, tmp_mpi_path):
+    scene = _scene()
+    rolling = dataclasses.replace(scene, loading=dataclasses.replace(scene.loading, protocol="rolling-continuous",
+                                                                   travel=1.0))
+    with pytest.raises(ValueError, match="loading.protocol"):
+        run_scene(rolling, tmp_mpi_path, comm, progress=False)
+
+
+def test_divergence_is_reported_not_raised(comm, tmp_mpi_path, monkeypatch):
+    """A solver failure after cutting ends with status failed + reason and the last converged state."""
+    import rollsim.solver.indentation as ind
+    from rollsim.solver import StepControl
+    monkeypatch.setattr(ind, "DEFAULT_STEP_CONTROL", StepControl(dt=0.1, dt_min=1e-4, max_cuts=0,
+                                                                 max_iterations=8))
+    summary = run_scene(_scene(), tmp_mpi_path, comm, progress=False, write_fields=False)
+    assert summary["status"] == "failed" and summary["reason"]
+    if comm.rank == 0:
+        s = json.loads((tmp_mpi_path / "summary.json").read_text())
+        assert s["status"] == "failed" and "diagnostics" in s
+
+
+def test_layer_materials_from_scene():
+    sc = parse_scene({"wheel": {"diameter": 1.0, "width": 0.3},
+                      "soil": {"gamma": 20e3, "layers": [
+                          {"model": "von-mises", "E": 1e7, "nu": 0.3, "c": 50e3, "match": "plane-strain",
+                           "thickness": 0.4},
+                          {"model": "drucker-prager", "E": 1e7, "nu": 0.3, "c": 10e3, "phi": 30},
+                          ]},
+                      "loading": {"protocol": "indentation", "max_sinkage": 0.1}})
+    vm = layer_material(sc.soil.layers[0], 0)
+    assert vm.yield_stress == pytest.approx(math.sqrt(3) * 50e3)
+    dp = layer_material(sc.soil.layers[1], 1)
+    s = math.sin(math.radians(30))
+    assert math.tan(dp.phi_dp) == pytest.approx(6 * s / (3 - s))
+    assert dp.c_dp == pytest.approx(6 * 10e3 * math.cos(math.radians(30)) / (3 - s))
+
+
+def test_example_scene_loads(comm):
+    import pathlib
+    scene = load_scene(pathlib.Path(__file__).parents[1] / "examples" / "indentation_mndot.toml")
+    assert layer_material(scene.soil.layers[0]).c_dp == pytest.approx(194.6e3)
