@@ -12,15 +12,26 @@ the default degree-2 schemes, whose weights are equal).
 from __future__ import annotations
 
 import pathlib
+import subprocess
+import sys
 
 import numpy as np
 from dolfinx import fem
 
 from rollsim import compat
+from rollsim.log import get_logger
+
+log = get_logger("fields")
 
 __all__ = ["FieldWriter", "cell_averages"]
 
 _SQ23 = np.sqrt(2.0 / 3.0)
+
+
+# DOLFINx -> VTK vertex order of linear cells, and the VTK cell types
+_VTK_ORDER = {"triangle": [0, 1, 2], "tetrahedron": [0, 1, 2, 3], "quadrilateral": [0, 1, 3, 2],
+              "hexahedron": [0, 1, 3, 2, 4, 5, 7, 6]}
+_VTK_TYPE = {"triangle": 5, "tetrahedron": 10, "quadrilateral": 9, "hexahedron": 12}
 
 
 def cell_averages(problem, f: fem.Function, width: int) -> np.ndarray:
@@ -108,5 +119,43 @@ class FieldWriter:
         finally:
             x[:] = saved
 
+    def render_plastic_zone(self, png_path, title: str = "") -> bool:
+        """Picture of the deformed soil coloured by equivalent plastic strain (collective).
+
+        The owned cells of every rank are gathered to rank 0 and drawn off-screen with
+        pyvista; returns False (and draws nothing) where pyvista is not installed.
+        """
+        self._update()
+        msh = self.problem.mesh
+        tdim, gdim = msh.topology.dim, msh.geometry.dim
+        n = msh.topology.index_map(tdim).size_local
+        nv = msh.geometry.dofmap.links(0).size if n else 0
+        gdofs = msh.geometry.dofmap.array.reshape(-1, nv)[:n] if nv else np.zeros((0, 0), dtype=np.int32)
+        u = self.u1.x.array.reshape(-1, gdim)
+        vdofs = self.V1.dofmap.list.array.reshape(-1, nv)[:n] if nv else gdofs
+        points = msh.geometry.x[gdofs.reshape(-1), :gdim] + (u[vdofs.reshape(-1)] if nv else 0.0)
+        local = (points, np.full(n, nv), self.epeq.x.array[self._cell_dofs[:n]])
+        gathered = self.comm.gather(local, root=0)
+        if self.comm.rank != 0:
+            return True
+        pts = np.concatenate([g[0] for g in gathered]).reshape(-1, gdim)
+        if gdim == 2:
+            pts = np.column_stack([pts, np.zeros(len(pts))])
+        per_cell = int(max(g[1].max(initial=0) for g in gathered))
+        conn = np.arange(len(pts)).reshape(-1, per_cell)[:, _VTK_ORDER[msh.topology.cell_name()]]
+        npz = pathlib.Path(png_path).with_suffix(".npz")
+        np.savez(npz, points=pts, connectivity=conn, cell_type=_VTK_TYPE[msh.topology.cell_name()],
+                 values=np.concatenate([g[2] for g in gathered]))
+        # a renderer crash must not take the simulation down: draw in a child process
+        # (VTK aborts when DOLFINx/PETSc are loaded in the same process, hence the light module)
+        code = "import sys; from rollsim.render import render_npz; render_npz(*sys.argv[1:])"
+        done = subprocess.run([sys.executable, "-c", code, str(npz), str(png_path), title],
+                              capture_output=True, text=True, timeout=300)
+        npz.unlink()
+        if done.returncode != 0:
+            log.warning("plastic-zone picture failed: %s", (done.stderr.strip().splitlines() or ["?"])[-1])
+        return done.returncode == 0
+
     def close(self) -> None:
         self._file.close()
+

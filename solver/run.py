@@ -214,6 +214,10 @@ def run_scene(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_op
     if writer is not None:
         try:
             writer.write_deformed()
+            writer.render_plastic_zone(out / "plastic_zone.png",
+                                       f"equivalent plastic strain at s = {rows[-1]['sinkage_m'] if rows else 0:.4f} m")
+        except Exception as err:  # noqa: BLE001 - a picture must not lose the run
+            log.warning("plastic-zone picture failed: %s", err)
         finally:
             writer.close()
 
@@ -246,7 +250,8 @@ def run_scene(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_op
                   "contact": {"method": "penalty", "alpha": ct.alpha, "kappa_Pa_per_m": ct.kappa, "h_m": ct.h,
                               "friction": ct.friction}},
         "files": {"history": "history.csv", "fields": ["fields/fields.xdmf", "fields/deformed.xdmf"]
-                  if write_fields else [], "plot": "force_sinkage.png"},
+                  if write_fields else [], "plot": "force_sinkage.png",
+                  "plastic_zone": "plastic_zone.png" if write_fields else None},
     }
     if diagnostics:
         summary["diagnostics"] = diagnostics

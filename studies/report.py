@@ -18,6 +18,7 @@ import numpy as np
 from rollsim.units import InputError
 
 MAX_CURVES = 16  # force-sinkage curves per figure
+MAX_ZONES = 6  # plastic-zone pictures shown in a study report
 
 
 def _plt():
@@ -177,7 +178,9 @@ def write_report(directory) -> pathlib.Path:
         if not history.is_file():
             continue
         k = tuple(float(r[f"k{i}"]) for i in range(1, 5)) if r.get("k1") else None
+        zone = history.parent / "plastic_zone.png"
         cases.append({"name": r["case"], "history": _read_csv(history), "k": k,
+                      "zone": zone.relative_to(out).as_posix() if zone.is_file() else None,
                       "d": scene["wheel"]["diameter"], "gamma": scene["soil"]["gamma"]})
     loads = study.get("reference_loads_N") or []
     load_tag = f"{loads[0] / 1e3:g}kN" if loads else None
@@ -193,6 +196,11 @@ def write_report(directory) -> pathlib.Path:
         text += ["", "## Parameter effects", ""]
         for name, caption in effects:
             text += [f"![{caption}]({name})", "", f"*{caption}*", ""]
+    zones = [(c["name"], c["zone"]) for c in cases if c.get("zone")][:MAX_ZONES]
+    if zones:
+        text += ["", "## Plastic zones", ""]
+        text += [f"![{name}]({path})\n\n*{name}: equivalent plastic strain at the last converged step*\n"
+                 for name, path in zones]
     text += ["", "## Results", "", "Fit: Q_V/(gamma d^3) = k1 sqrt(x) + k2 x + k3 x^2 + k4 x^3, x = s/d; "
              "ratio = computed sinkage / bearing-capacity model sinkage at the reference load.", "",
              _markdown_table(rows), ""]
@@ -232,6 +240,9 @@ def run_report(directory) -> pathlib.Path:
             + f", {summary.get('steps')} steps, {summary.get('newton_iterations')} Newton iterations, "
             f"{summary.get('wall_time_s', 0):.1f} s on {summary.get('ranks')} rank(s), {summary.get('dofs')} dofs.",
             "", "![force-sinkage vs model](force_sinkage_vs_model.png)", ""]
+    if (out / "plastic_zone.png").is_file():
+        text += ["![plastic zone](plastic_zone.png)", "",
+                 "*Equivalent plastic strain on the deformed soil at the last converged step.*", ""]
     path = out / "report.md"
     atomic_write_text(path, "\n".join(text))
     return path

@@ -41,6 +41,9 @@ def test_run_scene_writes_the_run_directory(comm, tmp_mpi_path):
         assert (tmp_mpi_path / "force_sinkage.png").stat().st_size > 1000
         for name in ("fields.xdmf", "fields.h5", "deformed.xdmf", "deformed.h5"):
             assert (tmp_mpi_path / "fields" / name).exists(), name
+        # the plastic-zone picture, gathered from every rank and drawn off-screen
+        assert (tmp_mpi_path / "plastic_zone.png").stat().st_size > 10_000
+        assert not list(tmp_mpi_path.glob("*.npz"))
         assert not list(tmp_mpi_path.glob(".*.tmp"))
     comm.barrier()
 
