@@ -11,7 +11,7 @@ Cases (smooth rigid strip, half model 2.5B x 2.5B, P2 triangles, crossed, graded
   2. weightless associated smoothed Mohr-Coulomb (Abbo-Sloan, theta_T = 29 and 25 deg),
      phi = 20 deg: p_lim vs the exact c N_c; plane-strain-matched Drucker-Prager alongside.
   3. extremes: nu = 0.3 / 0.49 / 0.499 (von Mises, n = 4); phi_dp = 60 deg with psi = 60 / 0;
-     two Tresca layers with a 30:1 strength contrast (LayeredMaterial).
+     two Tresca layers with a 30:1 strength contrast ({tag: material}, interface on a mesh line).
 """
 from __future__ import annotations
 
@@ -26,7 +26,6 @@ from mpi4py import MPI
 from rollsim.log import setup_logging
 from rollsim.solver import (DruckerPrager, SmoothedMohrCoulomb, SolverDivergedError, StepControl, StripFooting,
                             jaky_k0, prandtl_nc, strip_footing_mesh, von_mises_from_tresca)
-from rollsim.solver.layered_material import LayeredMaterial
 
 E, NU, C, B, GAMMA = 50e6, 0.3, 100e3, 1.0, 18e3
 DEG = math.pi / 180
@@ -34,9 +33,10 @@ EXTREME_CTL = StepControl(dt=0.05, dt_max=0.2, dt_min=1e-5, max_wall_time=300, p
 N_GAMMA_MARTIN = 7.65      # smooth strip, phi = 30 deg; Martin (2005), Proc. 11th IACMAG, vol. 4, 441-450
 
 
-def footing(comm, material, n, settlement, control=None, **kw):
+def footing(comm, material, n, settlement, control=None, interfaces=None, **kw):
     t0 = time.perf_counter()
-    fo = StripFooting(strip_footing_mesh(comm, B, n), material, B, **kw)
+    fo = StripFooting(strip_footing_mesh(comm, B, n, interfaces=interfaces or ()), material, B,
+                      interfaces=interfaces, **kw)
     out = {"n": n, "dofs": fo.n_dofs}
     try:
         res = fo.run(settlement, control)
@@ -131,9 +131,8 @@ def main():
                                       f"{r['limit_pressure'] / C:.2f} c: {r['error']}")
             + f", wall {r['wall_time']:.1f} s")
     for top, bot, settle in ((10e3, 300e3, 0.02), (300e3, 10e3, 0.1)):
-        m = LayeredMaterial([von_mises_from_tresca(E, NU, top), von_mises_from_tresca(E, NU, bot)],
-                            lambda x: (x[:, 1] < -0.25 * B).astype(int))
-        r = footing(comm, m, 4, settle, EXTREME_CTL)
+        m = {1: von_mises_from_tresca(E, NU, top), 2: von_mises_from_tresca(E, NU, bot)}
+        r = footing(comm, m, 4, settle, EXTREME_CTL, interfaces=[0.25 * B])
         r["case"] = f"Tresca {top / 1e3:g} kPa over {bot / 1e3:g} kPa, H = 0.25 B"
         r["ratio_to_weak"] = r["limit_pressure"] / ((2 + math.pi) * min(top, bot))
         rows.append(r)

@@ -17,13 +17,12 @@ from petsc4py import PETSc
 
 from rollsim.log import get_logger
 
-from .materials import admissible_k0
 from .problem import PlasticityProblem
 from .stepping import StepControl, solve_load_path
 
 log = get_logger("solver")
 
-__all__ = ["prandtl_nc", "strip_footing_mesh", "FootingResult", "StripFooting"]
+__all__ = ["prandtl_nc", "strip_footing_mesh", "layer_cell_tags", "FootingResult", "StripFooting"]
 
 
 def prandtl_nc(phi: float) -> float:
@@ -36,12 +35,14 @@ def prandtl_nc(phi: float) -> float:
 
 def strip_footing_mesh(comm: MPI.Comm, B: float = 1.0, n: int = 8, width: float | None = None,
                        depth: float | None = None, grading: float = 1.5,
-                       diagonal: str = "crossed"):
+                       diagonal: str = "crossed", interfaces=()):
     """Structured triangle mesh of the half block, graded towards the footing edge (B/2, 0).
 
     ``n`` cells across the footing half-width; ``width``/``depth`` default to 2.5 B (block 5B x 2.5B).
     Grading: node spacing shrinks like a power ``grading`` towards x = B/2 and y = 0; the footing
-    edge is always a mesh node.
+    edge is always a mesh node.  ``interfaces``: depths (m below y = 0) put on mesh lines (layer
+    boundaries, see :func:`layer_cell_tags`): the nearest row of nodes is moved there and the rows
+    between are stretched linearly in depth.
     """
     width = 2.5 * B if width is None else width
     depth = 2.5 * B if depth is None else depth
@@ -64,8 +65,34 @@ def strip_footing_mesh(comm: MPI.Comm, B: float = 1.0, n: int = 8, width: float 
     xn[left] = a * (1.0 - (1.0 - xi[left] / n1) ** grading)
     xn[~left] = a + (width - a) * ((xi[~left] - n1) / n2) ** grading
     yn = -depth * ((ny - eta) / ny) ** grading
+    if len(interfaces):
+        rows = depth * (np.arange(ny + 1) / ny) ** grading            # row depths, increasing
+        hs = sorted(float(h) for h in interfaces)
+        if not all(0 < h < depth for h in hs):
+            raise ValueError(f"interfaces must lie in (0, {depth:g}), got {interfaces!r}")
+        ks = [int(np.argmin(np.abs(rows[1:-1] - h))) + 1 for h in hs] if ny > 1 else []
+        if len(set(ks)) != len(hs):
+            raise ValueError(f"interfaces {hs} are too close for this mesh (n = {n}): refine it")
+        yn = -np.interp(-yn, [0.0, *rows[ks], depth], [0.0, *hs, depth])
     x[:, 0], x[:, 1] = xn, yn
     return msh
+
+
+def layer_cell_tags(msh, interfaces, surface: float = 0.0):
+    """Cell tags of horizontal layers: tag ``k`` (1, 2, ...) = layer ``k`` counted from the top
+    (the convention of ``WheelIndentation``), with the interfaces at the depths ``interfaces`` (m,
+    positive, increasing) below ``surface`` (vertical coordinate = the last one).  A cell belongs to
+    the layer holding its midpoint; put the interfaces on mesh lines (``strip_footing_mesh(...,
+    interfaces=...)``) for exact layer boundaries."""
+    depths = [float(h) for h in interfaces]
+    if any(h <= 0 for h in depths) or any(b <= a for a, b in zip(depths, depths[1:])):
+        raise ValueError(f"interfaces must be positive, increasing depths, got {interfaces!r}")
+    tdim, vert = msh.topology.dim, msh.geometry.dim - 1
+    imap = msh.topology.index_map(tdim)
+    cells = np.arange(imap.size_local + imap.num_ghosts, dtype=np.int32)
+    depth = surface - dmesh.compute_midpoints(msh, tdim, cells)[:, vert]
+    values = (1 + np.searchsorted(np.asarray(depths), depth, side="right")).astype(np.int32)
+    return dmesh.meshtags(msh, tdim, cells, values)
 
 
 @dataclass
@@ -90,13 +117,17 @@ class FootingResult:
 class StripFooting:
     """Displacement-controlled smooth rigid strip footing on an elastoplastic half block.
 
+    ``material``: one material, or ``{cell tag: material}`` for layers with either ``cell_tags``
+    or ``interfaces`` (depths in m below the surface y = 0, increasing; tag k = layer k from the top,
+    see :func:`layer_cell_tags`), e.g. ``StripFooting(msh, {1: weak, 2: strong}, interfaces=[0.25])``.
+
     With ``unit_weight`` > 0 a geostatic initial stress with coefficient ``K0`` is set (default
-    ``nu/(1-nu)``); a K0 that violates the yield condition is clipped into the yield surface with a
-    warning (:func:`~rollsim.solver.materials.admissible_k0`); the value used is ``self.K0``.
+    ``nu/(1-nu)``); a K0 that violates the yield condition is moved inside the yield surface with a
+    warning (:meth:`PlasticityProblem.set_geostatic_stress`); the value used is ``self.K0``.
     """
 
     def __init__(self, msh, material, B: float = 1.0, *, degree: int = 2, unit_weight: float = 0.0,
-                 K0: float | None = None, petsc_options: dict | None = None):
+                 K0: float | None = None, petsc_options: dict | None = None, interfaces=None, cell_tags=None):
         self.mesh, self.B = msh, B
         comm = msh.comm
         fdim = msh.topology.dim - 1
@@ -104,10 +135,18 @@ class StripFooting:
         ymin = comm.allreduce(msh.geometry.x[:, 1].min(), op=MPI.MIN)
         tol = 1e-9 * B
         gamma = unit_weight
+        if isinstance(material, dict):
+            if (cell_tags is None) == (interfaces is None):
+                raise ValueError("material {tag: material} needs exactly one of cell_tags or interfaces")
+            if cell_tags is None:
+                cell_tags = layer_cell_tags(msh, interfaces)
+        elif interfaces is not None or cell_tags is not None:
+            raise ValueError("interfaces/cell_tags need material as {cell tag: material}")
+        self.cell_tags = cell_tags
         import ufl
         body = ufl.as_vector([0.0, -gamma]) if gamma else None
         self.problem = pb = PlasticityProblem(msh, material, degree=degree, body_force=body,
-                                              petsc_options=petsc_options)
+                                              petsc_options=petsc_options, cell_tags=cell_tags)
         V = pb.V
         self.footing_facets = dmesh.locate_entities_boundary(
             msh, fdim, lambda x: (np.abs(x[1]) < tol) & (x[0] <= B / 2 + tol))
@@ -128,22 +167,11 @@ class StripFooting:
         self.w = fem.Function(V)
         self.w.x.array[dofs_foot] = 1.0
         self.w.x.scatter_forward()
-        if hasattr(material, "bind_points"):          # LayeredMaterial: assign quadrature points
-            from .layered_material import quadrature_point_coordinates
-            material.bind_points(quadrature_point_coordinates(pb))
         self.K0 = None
         if gamma:
             # K0 = nu/(1-nu) (default) can lie outside a frictional yield surface (nu = 0.3 vs the
-            # plane-strain-matched cone of phi = 30 deg): clip it into the surface, with a warning.
-            K0_used, clipped = admissible_k0(material, K0, gamma * (0.0 - ymin), pb.ncomp)
-            if clipped:
-                given = (f"K0 = {K0:g}" if K0 is not None
-                         else f"default K0 = nu/(1-nu) = {material.nu / (1 - material.nu):.4g}")
-                log.warning("%s violates the yield condition under self weight; using K0 = %.4g "
-                            "(10 %% inside the yield surface towards K0 = 1); pass K0 = 1 - sin(phi) (Jaky, "
-                            "rollsim.solver.jaky_k0) for a frictional soil", given, K0_used)
-            self.K0 = K0_used
-            pb.set_geostatic_stress(gamma, surface=0.0, K0=K0_used)
+            # plane-strain-matched cone of phi = 30 deg): moved inside it, with a warning
+            self.K0 = pb.set_geostatic_stress(gamma, surface=0.0, K0=K0)
         n_cells = msh.topology.index_map(msh.topology.dim).size_local
         self.n_cells = comm.allreduce(n_cells)
         self.n_dofs = V.dofmap.index_map.size_global * V.dofmap.index_map_bs
@@ -155,7 +183,7 @@ class StripFooting:
     def run(self, settlement: float, control: StepControl | None = None,
             time_elastic: bool = False) -> FootingResult:
         """Push the footing down by ``settlement`` (m) with adaptive steps; pressure at the end."""
-        # the extrapolated predictor: c = 0 footing n = 8 needs 38 steps instead of 709 (README_ROBUSTNESS)
+        # the extrapolated predictor: c = 0 footing n = 8 needs 38 steps instead of 709 (README, "Purely frictional soil")
         control = control or StepControl(dt=0.05, dt_max=0.2, dt_min=1e-5, predictor="extrapolate")
         disp, pres = [0.0], [self.pressure()]
         t_el = self.problem.elastic_solve_time() if time_elastic else float("nan")

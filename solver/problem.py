@@ -16,9 +16,8 @@ Pattern (generalises to 3D, contact and load control):
 
 Extension points (designed, not yet used): :meth:`PlasticityProblem.add_residual_term` adds a
 UFL residual term and its Gateaux derivative (rigid-wheel penalty/Nitsche contact is such a
-term, with the wheel position in a ``fem.Constant``); load control (force given) fits the
-stepper unchanged by making the load parameter a Neumann traction or by adding the rigid-body
-displacement as a global unknown (a Lagrange multiplier row) - see ``solver/README_SECTION.md``.
+term, with the wheel position in a ``fem.Constant``, see ``solver/contact.py``); load control
+(force given) is done outside, by searching the wheel position (``solver/indentation.py``).
 """
 from __future__ import annotations
 
@@ -38,7 +37,7 @@ from rollsim.log import get_logger
 
 from .return_map import return_map, elastic_stiffness, yield_function, ReturnResult, ELASTIC, PLASTIC, APEX
 
-__all__ = ["NewtonReport", "PlasticityProblem", "mandel_strain", "DEFAULT_PETSC_OPTIONS"]
+__all__ = ["NewtonReport", "PlasticityProblem", "mandel_strain", "DEFAULT_PETSC_OPTIONS", "REASON_PETSC_ERROR"]
 
 log = get_logger("solver")
 
@@ -55,6 +54,20 @@ DEFAULT_PETSC_OPTIONS = {
 }
 
 _SQ2 = np.sqrt(2.0)
+
+#: ``NewtonReport.reason`` when PETSc raised inside SNES (the linear solver has been re-created)
+REASON_PETSC_ERROR = -100
+
+
+def _first_line(err, limit: int = 200) -> str:
+    """One-line summary of an exception (PETSc errors carry a whole traceback): the message lines
+    without the ``[rank] Function() at file:line`` frames, joined, at most ``limit`` characters."""
+    import re
+    lines = [re.sub(r"^\[\d+\]\s*", "", ln).strip() for ln in str(err).splitlines()]
+    msg = [ln for ln in lines if ln and "() at " not in ln and not ln.startswith("error code")
+           and not set(ln) <= set("-")]
+    text = "; ".join(msg) or type(err).__name__
+    return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
 def mandel_strain(u, gdim: int):
@@ -142,6 +155,7 @@ class PlasticityProblem:
             mandel_strain(self.u, self.gdim) - mandel_strain(self.u_n, self.gdim), self.points)
 
         self._groups = self._material_groups(cell_tags)      # [(material, owned qp indices)]
+        self.K0 = None                                       # set by set_geostatic_stress
         self._set_owned(self.tangent, self._elastic_tangent())
         self._commit_hooks: list = []
         self._restore_hooks: list = []
@@ -197,13 +211,17 @@ class PlasticityProblem:
     def material_function(self, attribute: str, name: str | None = None) -> fem.Function:
         """Cell-wise (DG0) Function of a material attribute (e.g. ``"nu"``, ``"E"``) - for output
         and per-layer expressions."""
+        return self._cellwise([getattr(mat, attribute) for mat, _ in self._groups], name or attribute)
+
+    def _cellwise(self, values, name: str) -> fem.Function:
+        """DG0 Function with ``values[i]`` on the cells of material group ``i``."""
         W = compat.scalar_space(self.mesh, 0, "DG")
-        f = fem.Function(W, name=name or attribute)
+        f = fem.Function(W, name=name)
         nq = self.points.shape[0]
         vals = np.zeros(self.n_cells)
-        for mat, qp in self._groups:
+        for (mat, qp), val in zip(self._groups, values):
             cells = np.arange(self.n_cells) if isinstance(qp, slice) else qp[::nq] // nq
-            vals[cells] = getattr(mat, attribute)
+            vals[cells] = val
         # DG0: one dof per cell, owned cells first in cell order
         dofs = np.array([W.dofmap.cell_dofs(c)[0] for c in range(self.n_cells)], dtype=np.int32)
         f.x.array[dofs] = vals
@@ -250,20 +268,41 @@ class PlasticityProblem:
         compat.evaluate_into(expr, self.sigma_n)
         self.sigma.x.array[:] = self.sigma_n.x.array
 
-    def set_geostatic_stress(self, unit_weight: float, surface: float, K0: float | None = None) -> None:
+    def set_geostatic_stress(self, unit_weight: float, surface: float, K0=None):
         """Geostatic initial stress for a soil with unit weight ``gamma`` (N/m^3) and free surface at
         ``x[gdim-1] = surface``: sigma_v = -gamma (surface - z), sigma_h = K0 sigma_v,
-        K0 = nu/(1-nu) by default.  Use with ``body_force = (0, .., -gamma)``."""
-        if K0 is None:
-            if len(self._groups) == 1:
-                nu = self.material.nu
-                K0 = nu / (1.0 - nu)
-            else:                                   # per layer K0 = nu/(1-nu)
-                nu = self.material_function("nu")
-                K0 = nu / (1.0 - nu)
+        K0 = nu/(1-nu) by default (per layer with several materials).  Use with
+        ``body_force = (0, .., -gamma)``.
+
+        A K0 that puts the deepest point of a layer outside its yield surface (e.g. the default
+        nu/(1-nu) = 0.43 of nu = 0.3 against the plane-strain-matched cone of phi = 30 deg) is moved
+        inside it with a warning (:func:`~rollsim.solver.materials.admissible_k0`: 10 % inside the
+        yield surface towards K0 = 1).  Returns the K0 used: a float, or ``{cell tag: K0}`` when the
+        layers got different values."""
+        from .materials import admissible_k0
+        zmin = self.comm.allreduce(float(self.mesh.geometry.x[:, self.gdim - 1].min(initial=np.inf)), op=MPI.MIN)
+        sv_max = unit_weight * (surface - zmin)
+        used = []
+        tags = list(self.materials)                 # the order of self._groups
+        for tag, (mat, _) in zip(tags, self._groups):
+            k_given = K0.get(tag) if isinstance(K0, dict) else K0
+            k_used, clipped = admissible_k0(mat, k_given, sv_max, self.ncomp)
+            if clipped:
+                given = (f"K0 = {k_given:g}" if k_given is not None
+                         else f"default K0 = nu/(1-nu) = {mat.nu / (1 - mat.nu):.4g}")
+                where = "" if tag is None else f" (cell tag {tag})"
+                log.warning("%s%s violates the yield condition under self weight; using K0 = %.4g "
+                            "(10 %% inside the yield surface towards K0 = 1); pass K0 = 1 - sin(phi) (Jaky, "
+                            "rollsim.solver.jaky_k0) for a frictional soil", given, where, k_used)
+            used.append(k_used)
+        if len(set(used)) == 1:
+            K0_used = K0_field = used[0]
+        else:                                       # per layer: a cell-wise (DG0) coefficient
+            K0_used = dict(zip(tags, used))
+            K0_field = self._cellwise(used, "K0")
         x = ufl.SpatialCoordinate(self.mesh)
         sv = -unit_weight * (surface - x[self.gdim - 1])
-        comps = [K0 * sv] * 3
+        comps = [K0_field * sv] * 3
         comps[self.gdim - 1] = sv
         comps += [0.0 * sv] * (self.ncomp - 3)
         self.set_initial_stress(ufl.as_vector(comps))
@@ -275,6 +314,8 @@ class PlasticityProblem:
         nviol = self.comm.allreduce(nviol)
         if nviol:
             log.warning("geostatic stress violates the yield condition at %d quadrature points", nviol)
+        self.K0 = K0_used
+        return K0_used
 
     # ------------------------------------------------------------------ constitutive update
     def constitutive_update(self, tangent: bool = True):
@@ -401,8 +442,21 @@ class PlasticityProblem:
             self.snes.solve(None, self._x)
             reason = self.snes.getConvergedReason()
         except PETSc.Error as err:        # e.g. a zero pivot in the factorisation
-            log.warning("SNES raised %s", err)
-            reason = -100
+            # one line (a flooded stdout/stderr pipe has killed a rank under mpirun); the full
+            # PETSc traceback only at DEBUG
+            code = getattr(err, "ierr", None)
+            log.warning("SNES raised PETSc error %s after %d iterations (%s); linear solver re-created",
+                        code, self.snes.getIterationNumber(), _first_line(err))
+            log.debug("SNES PETSc error traceback:\n%s", err)
+            reason = REASON_PETSC_ERROR
+            self.reset_linear_solver()
+        if reason == PETSc.SNES.ConvergedReason.DIVERGED_LINEAR_SOLVE:
+            # a failed MUMPS factorisation (e.g. zero pivots from apex points) leaves the factor in
+            # its error state and every later factorisation is skipped: without a fresh linear
+            # solver all following (cut) steps fail the same way
+            log.info("linear solve failed inside SNES (%s); linear solver re-created",
+                     self.snes.getKSP().getConvergedReason())
+            self.reset_linear_solver()
         its = self.snes.getIterationNumber()
         dt = time.perf_counter() - t0
         self.timings["snes"] += dt
@@ -415,6 +469,24 @@ class PlasticityProblem:
         return NewtonReport(converged=converged, iterations=its, reason=int(reason),
                             residual_norms=list(self._history), time=dt,
                             counts=self.counts() if converged else {})
+
+    def reset_linear_solver(self) -> None:
+        """Give SNES a fresh KSP with the same options.  After a PETSc error inside SNES (e.g.
+        MUMPS failing on a singular tangent) the old KSP is unusable (PETSc 3.18: "Cannot embed
+        PCPreSolve() more than twice" on every later solve), so a cut step could never succeed.
+        :meth:`solve_increment` calls this itself after such an error."""
+        if not self._compiled:
+            return
+        try:
+            old = self.snes.getKSP()
+            ksp = PETSc.KSP().create(old.getComm())
+            ksp.setOptionsPrefix(old.getOptionsPrefix())
+            ksp.setFromOptions()
+            self.snes.setKSP(ksp)
+            old.destroy()
+            log.debug("linear solver re-created after a PETSc error")
+        except Exception as err:          # pragma: no cover - best effort
+            log.warning("could not re-create the linear solver: %s", _first_line(err))
 
     def commit(self) -> None:
         """Accept the current state as converged (update history variables)."""

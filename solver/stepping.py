@@ -1,6 +1,6 @@
 """Adaptive load stepping: step cutting on divergence, growth after easy steps, clean failure.
 
-Robustness features (see ``solver/README_ROBUSTNESS.md`` for the measurements):
+Robustness features (measurements in the README, "Purely frictional soil"):
 
 * **extrapolated predictor** (``StepControl.predictor = "extrapolate"``; ``StripFooting`` uses
   it by default, ``StepControl`` keeps ``"none"`` for backward compatibility): Newton starts
@@ -161,16 +161,12 @@ def solve_load_path(problem, set_load: Callable[[float], None], control: StepCon
         its_total += rep.iterations
         if not rep.converged and predicted and control.predictor == "auto":
             problem.restore()
-            if rep.reason == -100:
-                _reset_linear_solver(problem)
             log.info("  step t=%.6g dt=%.3g: extrapolated start failed (reason %d after %d its); "
                      "retrying from the converged state", t + dt, dt, rep.reason, rep.iterations)
             rep = problem.solve_increment()
             its_total += rep.iterations
         if not rep.converged:
             problem.restore()
-            if rep.reason == -100:
-                _reset_linear_solver(problem)
             cuts += 1
             log.info("  step t=%.6g dt=%.3g diverged (reason %d after %d its); cut %d; |F|: %s",
                      t + dt, dt, rep.reason, rep.iterations, cuts,
@@ -207,21 +203,11 @@ def solve_load_path(problem, set_load: Callable[[float], None], control: StepCon
 
 
 def _reset_linear_solver(problem) -> None:
-    """After a PETSc error inside SNES (e.g. MUMPS failing on a singular tangent) the KSP is left
-    unusable (PETSc 3.18: "Cannot embed PCPreSolve() more than twice" on every later solve):
-    give SNES a fresh KSP with the same options so that the cut step really is retried."""
-    snes = getattr(problem, "snes", None)
-    if snes is not None:
-        try:
-            from petsc4py import PETSc
-            old = snes.getKSP()
-            ksp = PETSc.KSP().create(old.getComm())
-            ksp.setOptionsPrefix(old.getOptionsPrefix())
-            ksp.setFromOptions()
-            snes.setKSP(ksp)
-            log.info("  linear solver re-created after a PETSc error")
-        except Exception as err:          # pragma: no cover - best effort
-            log.warning("could not reset the linear solver: %s", err)
+    """Kept for callers of the old helper: ``PlasticityProblem.solve_increment`` now re-creates the
+    linear solver itself after a PETSc error (:meth:`PlasticityProblem.reset_linear_solver`)."""
+    reset = getattr(problem, "reset_linear_solver", None)
+    if reset is not None:
+        reset()
 
 
 def _mpi_max():
