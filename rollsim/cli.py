@@ -430,9 +430,10 @@ def cmd_run(args) -> dict:
     setup_logging(comm, quiet=args.quiet, verbose=args.verbose)
     scene = load_scene(args.scene)
     options = _petsc_options(args.petsc_option)
-    if scene.loading.protocol != "indentation":
+    if scene.loading.protocol not in ("indentation", "rolling-continuous"):
         raise InputError("loading.protocol", f"{scene.loading.protocol!r} is not available in the finite-element "
-                         "solver yet (indentation is); the bearing-capacity model covers rolling: rollsim predict")
+                         "solver yet (indentation and rolling-continuous are); the bearing-capacity model covers "
+                         "constant-load rolling: rollsim predict --load")
     if scene.wheel.type != "rigid":
         raise InputError("wheel.type", "the finite-element solver has rigid wheels so far")
     from rollsim.solver.run import run_scene

@@ -148,9 +148,13 @@ def run_scene(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_op
     from .indentation import WheelIndentation
     from .stepping import SolverDivergedError
 
+    if scene.loading.protocol == "rolling-continuous":
+        from .rolling import run_rolling
+        return run_rolling(scene, out_dir, comm, progress=progress, petsc_options=petsc_options,
+                           write_fields=write_fields, penalty=penalty)
     if scene.loading.protocol != "indentation":
-        raise ValueError(f"loading.protocol: {scene.loading.protocol!r} is not supported by run_scene yet "
-                         "(rolling protocols are a separate solver issue); supported: 'indentation'")
+        raise ValueError(f"loading.protocol: {scene.loading.protocol!r} is not supported by run_scene yet; "
+                         "supported: 'indentation', 'rolling-continuous'")
     wheel = _wheel(scene.wheel)
     materials = {k: layer_material(layer, k - 1) for k, layer in enumerate(scene.soil.layers, start=1)}
     out = pathlib.Path(out_dir)

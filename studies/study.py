@@ -52,7 +52,9 @@ from rollsim.units import FORCE, InputError, to_si
 
 log = get_logger("study")
 RUNNERS = ("analytic", "fe")
-FE_COST_HINT = {"fast": "about 1 minute", "standard": "about 10-30 minutes", "accurate": "hours"}
+FE_COST_HINT = {("indentation", "fast"): "about 1 minute", ("indentation", "standard"): "10-30 minutes",
+                ("indentation", "accurate"): "hours", ("rolling", "fast"): "10-20 minutes",
+                ("rolling", "standard"): "hours", ("rolling", "accurate"): "days"}
 _INDEX = re.compile(r"^([A-Za-z_]\w*)(?:\[(\d+)\])?$")
 
 
@@ -404,7 +406,7 @@ def dry_run_lines(study: Study) -> list[str]:
     if study.runner == "analytic":
         lines.append("estimated cost: well under a second per case (bearing-capacity model)")
     else:
-        per_case = {c.scene.model.accuracy for c in study.cases}
-        lines.append("estimated cost per case on one rank (indentation to s/d = 0.1, development machine): "
-                     + ", ".join(f"{a}: {FE_COST_HINT[a]}" for a in sorted(per_case)))
+        kinds = sorted({(c.scene.loading.protocol.split("-")[0], c.scene.model.accuracy) for c in study.cases})
+        lines.append("estimated cost per case on 2 cores (development machine): "
+                     + ", ".join(f"{p} at {a}: {FE_COST_HINT[p, a]}" for p, a in kinds))
     return lines

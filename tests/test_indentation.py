@@ -82,7 +82,7 @@ def test_indentation_report_case_vs_bearing_capacity(comm, case):
 @pytest.mark.slow
 @pytest.mark.xfail(reason="open: c = 0 wheel indentation stalls (60 s guard) at s/d ~ 0.012 (alpha = 1) / "
                           "0.0004 (alpha = 10); predictor 'auto', penalty continuation, apex stiffening and "
-                          "frictionless contact measured without success (README, "Open: c = 0 under a wheel")", strict=False)
+                          "frictionless contact measured without success (README: 'Open: c = 0 under a wheel')", strict=False)
 def test_purely_frictional_soil_with_gravity_converges(comm):
     """c = 0, phi = 40 deg (DP compression match, psi = 0) with gravity: indentation to s/d = 0.03
     converges (the full s/d = 0.1 run is in the benchmark).  Wall-clock guard 60 s.

@@ -63,10 +63,10 @@ def test_fields_readable_by_pyvista(tmp_path, comm):
     assert deformed.bounds[4] == pytest.approx(-1.5 * 1.524)
 
 
-def test_rolling_protocol_is_refused_with_the_key(comm, tmp_mpi_path):
+def test_constant_load_rolling_is_refused_with_the_key(comm, tmp_mpi_path):
     scene = _scene()
-    rolling = dataclasses.replace(scene, loading=dataclasses.replace(scene.loading, protocol="rolling-continuous",
-                                                                   travel=1.0))
+    rolling = dataclasses.replace(scene, loading=dataclasses.replace(scene.loading, protocol="rolling-constant-load",
+                                                                   max_sinkage=None, load=100e3, travel=1.0))
     with pytest.raises(ValueError, match="loading.protocol"):
         run_scene(rolling, tmp_mpi_path, comm, progress=False)
 

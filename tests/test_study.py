@@ -180,3 +180,10 @@ def test_set_applies_to_every_case_without_naming_it(tmp_mpi_path):
                                       + GRID.split("\n", 2)[2]))
     assert all(c.scene.model.accuracy == "fast" and c.name.startswith("E=") for c in study.cases)
     assert {c.scene.wheel.friction for c in study.cases} == {0.4, 0.8}  # the sweep wins over [set]
+
+
+@pytest.mark.parametrize("name", sorted(p.name for p in (ROOT / "studies" / "examples").glob("*.toml")))
+def test_shipped_studies_validate(name):
+    study = st.load_study(ROOT / "studies" / "examples" / name)
+    assert study.cases and all(c.scene.model.accuracy == "fast" for c in study.cases if study.runner == "fe")
+    assert "estimated cost" in st.dry_run_lines(study)[-1]
