@@ -392,7 +392,7 @@ def run_rolling(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_
     ``loading.travel`` with the sinkage ramped to ``loading.max_sinkage`` over ``ramp`` (default:
     the whole travel).  ``block``: keywords of :func:`rolling_mesh` (length/half_width/depth in d).
     """
-    from .run import _atomic_write, _history_csv, _json_default, _plot, _wheel, layer_material
+    from .run import _atomic_write, _history_csv, _wheel, finish_run, layer_material
 
     if scene.loading.protocol != "rolling-continuous":
         raise ValueError(f"loading.protocol: {scene.loading.protocol!r} is not supported by run_rolling "
@@ -494,15 +494,4 @@ def run_rolling(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_
     }
     if diagnostics:
         summary["diagnostics"] = diagnostics
-    if root:
-        _atomic_write(out / "history.csv", _history_csv(rows))
-        try:
-            _plot(out / "force_sinkage.png", rows, scene, status)
-        except Exception as err:   # noqa: BLE001 - a plot must not lose the run
-            log.warning("force-sinkage plot failed: %s", err)
-        _atomic_write(out / "summary.json", json.dumps(summary, indent=2, default=_json_default) + "\n")
-        if progress:
-            log.info("%s: %d steps, %d Newton iterations, %.1f s -> %s", status, len(rows), roll.newton_iterations,
-                     wall, out)
-    comm.barrier()
-    return summary
+    return finish_run(out, rows, scene, summary, comm, progress=progress)

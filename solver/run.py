@@ -259,16 +259,21 @@ def run_scene(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_op
     }
     if diagnostics:
         summary["diagnostics"] = diagnostics
-    if root:
+    return finish_run(out, rows, scene, summary, comm, progress=progress)
+
+
+def finish_run(out: pathlib.Path, rows, scene, summary: dict, comm: MPI.Comm, *, progress: bool) -> dict:
+    """Write history.csv, the force-sinkage plot and summary.json (last) from rank 0; returns ``summary``."""
+    if comm.rank == 0:
         _atomic_write(out / "history.csv", _history_csv(rows))
         try:
-            _plot(out / "force_sinkage.png", rows, scene, status)
+            _plot(out / "force_sinkage.png", rows, scene, summary["status"])
         except Exception as err:   # noqa: BLE001 - a plot must not lose the run
             log.warning("force-sinkage plot failed: %s", err)
         _atomic_write(out / "summary.json", json.dumps(summary, indent=2, default=_json_default) + "\n")
         if progress:
-            log.info("%s: %d steps, %d Newton iterations, %.1f s -> %s", status, len(rows), ind.newton_iterations,
-                     wall, out)
+            log.info("%s: %d steps, %d Newton iterations, %.1f s -> %s", summary["status"], len(rows),
+                     summary["newton_iterations"], summary["wall_time_s"], out)
     comm.barrier()
     return summary
 
