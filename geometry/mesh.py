@@ -113,26 +113,25 @@ class TaggedMesh:
     stats: MeshStats
 
 
-def _gmsh_is_initialized() -> bool:
-    """gmsh 4.8 has no isInitialized: an initialised session lists at least its default model."""
-    try:
-        return len(gmsh.model.list()) > 0
-    except Exception:  # gmsh raises a bare Exception after finalize()
-        return False
+_gmsh_sessions = 0  # gmsh_model contexts open on this rank (gmsh is initialised while > 0)
 
 
 @contextlib.contextmanager
 def gmsh_model(comm: MPI.Comm, name: str) -> Iterator[gmsh.model | None]:
     """A fresh gmsh model on rank 0 of ``comm`` (``None`` elsewhere), removed afterwards.
 
-    gmsh is initialised here if needed and finalised again if this call initialised it.
+    rollsim owns the gmsh session: the outermost context initialises gmsh and finalises it again.
+    The session state is tracked here and never asked of gmsh, because gmsh 4.8 (Debian bookworm)
+    has no ``isInitialized`` and any API call made before ``initialize`` may end the process
+    with exit status 1 (seen as a silent rank-0 exit under mpirun).
     """
-    started = False
+    global _gmsh_sessions
     if comm.rank == 0:
-        if not _gmsh_is_initialized():
+        if _gmsh_sessions == 0:
             gmsh.initialize()
-            started = True
+        _gmsh_sessions += 1
         gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.option.setNumber("General.AbortOnError", 0)  # initialize() sets 2: errors would exit
         gmsh.model.add(name)
         gmsh.model.setCurrent(name)
     try:
@@ -141,7 +140,8 @@ def gmsh_model(comm: MPI.Comm, name: str) -> Iterator[gmsh.model | None]:
         if comm.rank == 0:
             gmsh.model.setCurrent(name)
             gmsh.model.remove()
-            if started:
+            _gmsh_sessions -= 1
+            if _gmsh_sessions == 0:
                 gmsh.finalize()
 
 

@@ -16,7 +16,8 @@ mpirun -n 2 --oversubscribe bash -c '
     if [ "${OMPI_COMM_WORLD_RANK:-0}" = 0 ]; then exec python -m pytest "$@" > "'"$logs"'/rank0.log" 2>&1;
     else exec python -m pytest -q -p no:cacheprovider "$@" > "'"$logs"'/rank1.log" 2>&1; fi' _ "$@" || status=$?
 if [ "$status" -ne 0 ]; then
-  echo "== rank 1 log ($logs/rank1.log):" >&2; tail -n 60 "$logs/rank1.log" >&2
+  echo "== rank 1 log ($logs/rank1.log):" >&2; tail -n 60 "$logs/rank1.log" >&2; echo >&2
+  echo "== rank 0 log ($logs/rank0.log):" >&2
 fi
 cat "$logs/rank0.log"
 exit "$status"
