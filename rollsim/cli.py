@@ -430,10 +430,6 @@ def cmd_run(args) -> dict:
     setup_logging(comm, quiet=args.quiet, verbose=args.verbose)
     scene = load_scene(args.scene)
     options = _petsc_options(args.petsc_option)
-    if scene.loading.protocol not in ("indentation", "rolling-continuous"):
-        raise InputError("loading.protocol", f"{scene.loading.protocol!r} is not available in the finite-element "
-                         "solver yet (indentation and rolling-continuous are); the bearing-capacity model covers "
-                         "constant-load rolling: rollsim predict --load")
     if scene.wheel.type != "rigid":
         raise InputError("wheel.type", "the finite-element solver has rigid wheels so far")
     from rollsim.solver.run import run_scene
@@ -443,11 +439,20 @@ def cmd_run(args) -> dict:
         from rollsim.studies.report import run_report
         run_report(args.out)
     if not args.json and comm.rank == 0:
+        extra = ""
+        if summary.get("steady_state"):
+            ss = summary["steady_state"]
+            extra = (f"; steady state {'reached' if ss['reached'] else 'NOT reached'}, Q_H = "
+                     f"{summary['QH_N'] / 1e3:.2f} kN"
+                     + (f", rut depth {summary['rut_depth_m']:.4f} m" if summary.get("rut_depth_m") is not None else ""))
         print(f"{summary['status']}: {summary['steps']} steps, Q_V = {summary['QV_N'] / 1e3:.2f} kN at "
-              f"s = {summary['sinkage_m']:.4f} m; {args.out}/summary.json")
+              f"s = {summary['sinkage_m']:.4f} m{extra}; {args.out}/summary.json")
     if summary["status"] != "ok":
-        raise RunFailed(summary.get("reason", "failed"), {"error": "failed", "reason": summary.get("reason", "")})
-    return {k: summary[k] for k in ("status", "steps", "sinkage_m", "QV_N", "QH_N", "wall_time_s", "ranks", "dofs")}
+        raise RunFailed(summary.get("reason", "failed"), {"error": summary["status"],
+                                                          "reason": summary.get("reason", "")})
+    keys = ("status", "steps", "sinkage_m", "QV_N", "QH_N", "wall_time_s", "ranks", "dofs", "rut_depth_m",
+            "rebound_m", "steady_state")
+    return {k: summary[k] for k in keys if k in summary}
 
 
 class RunFailed(Exception):

@@ -19,11 +19,13 @@ from .smoothed_mc import SmoothedMohrCoulomb, mohr_coulomb_exact  # noqa: F401
 _LAZY = {
     "PlasticityProblem": "problem", "NewtonReport": "problem", "mandel_strain": "problem",
     "StepControl": "stepping", "StepRecord": "stepping", "ConvergedState": "stepping",
-    "SolverDivergedError": "stepping", "solve_load_path": "stepping",
+    "SolverDivergedError": "stepping", "solve_load_path": "stepping", "RunInterrupted": "stepping",
+    "stop_on_signals": "stepping",
     "StripFooting": "footing", "FootingResult": "footing", "strip_footing_mesh": "footing",
     "prandtl_nc": "footing",
     "RigidWheelContact": "contact", "Circle": "contact", "WheelForces": "contact",
     "WheelIndentation": "indentation", "IndentationStep": "indentation", "LoadControlResult": "indentation",
+    "WheelRolling": "rolling", "RollingStep": "rolling", "SteadyState": "rolling",
     "run_scene": "run", "FieldWriter": "fields",
 }
 

@@ -119,11 +119,12 @@ class FieldWriter:
         finally:
             x[:] = saved
 
-    def render_plastic_zone(self, png_path, title: str = "") -> bool:
+    def render_plastic_zone(self, png_path, title: str = "", displacement_scale: float = 1.0) -> bool:
         """Picture of the deformed soil coloured by equivalent plastic strain (collective).
 
         The owned cells of every rank are gathered to rank 0 and drawn off-screen with
-        pyvista; returns False (and draws nothing) where pyvista is not installed.
+        pyvista; ``displacement_scale`` magnifies the displacement (e.g. to show a rut); returns
+        False (and draws nothing) where pyvista is not installed.
         """
         self._update()
         msh = self.problem.mesh
@@ -133,7 +134,7 @@ class FieldWriter:
         gdofs = msh.geometry.dofmap.array.reshape(-1, nv)[:n] if nv else np.zeros((0, 0), dtype=np.int32)
         u = self.u1.x.array.reshape(-1, gdim)
         vdofs = self.V1.dofmap.list.array.reshape(-1, nv)[:n] if nv else gdofs
-        points = msh.geometry.x[gdofs.reshape(-1), :gdim] + (u[vdofs.reshape(-1)] if nv else 0.0)
+        points = msh.geometry.x[gdofs.reshape(-1), :gdim] + displacement_scale * (u[vdofs.reshape(-1)] if nv else 0.0)
         local = (points, np.full(n, nv), self.epeq.x.array[self._cell_dofs[:n]])
         gathered = self.comm.gather(local, root=0)
         if self.comm.rank != 0:

@@ -145,8 +145,12 @@ class WheelIndentation:
         self._t_last = time.perf_counter()
 
     # ------------------------------------------------------------------ state
+    #: horizontal position of the wheel centre used by set_sinkage / push / push_to_load (m)
+    x_centre = 0.0
+
     def _centre(self, s: float) -> np.ndarray:
         c = np.zeros(self.gdim)
+        c[0] = self.x_centre
         c[-1] = self.radius - s
         return c
 

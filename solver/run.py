@@ -54,22 +54,43 @@ def layer_material(layer, index: int = 0):
     Drucker-Prager: ``phi_dp``/``c_dp``/``dilation`` as given, or matched to ``c``/``phi`` (dilation
     angle mapped with the same matching).  ``mohr-coulomb``: the smoothed (Abbo-Sloan) surface of
     ``solver/smoothed_mc.py`` when available, else a ``ValueError`` naming the layer.
+
+    Purely frictional layers (``c = 0`` or ``c_dp = 0`` with a friction angle > 0) get the
+    regularising cohesion ``materials.C_REG_DEFAULT`` (1 kPa) in its place, with a warning in the
+    log (README_c0.md: the measured effect on Q_V and why).
     """
-    from .materials import DruckerPrager, VonMises, mc_to_dp
+    from .materials import (C_REG_DEFAULT, PHI_COMPRESSION_MATCH_LIMIT, DruckerPrager, VonMises, mc_to_dp,
+                            regularised_cohesion)
     key = f"soil.layers[{index}]"
+    c, c_dp = layer.c, layer.c_dp
+    if layer.model in ("drucker-prager", "mohr-coulomb"):
+        angle = layer.phi_dp if (layer.model == "drucker-prager" and layer.phi_dp is not None) else layer.phi
+        reg = False
+        if angle is not None and layer.model == "drucker-prager" and layer.phi_dp is not None and c_dp is not None:
+            c_dp, reg = regularised_cohesion(c_dp, angle)
+        elif angle is not None and c is not None:
+            c, reg = regularised_cohesion(c, angle)
+        if reg:
+            log.warning("%s: c = 0 (purely frictional) -> regularising cohesion %g Pa used (numerical device; "
+                        "it raises Q_V measurably at small sinkage, see README_c0.md)", key, C_REG_DEFAULT)
+        if (layer.model == "drucker-prager" and layer.phi_dp is None and layer.phi is not None
+                and _MATCH.get(layer.match) == "compression" and layer.phi > PHI_COMPRESSION_MATCH_LIMIT):
+            log.warning("%s: compression-matched Drucker-Prager with phi = %.1f deg > 36.87 deg is stronger in "
+                        "triaxial extension than any Mohr-Coulomb soil and converges poorly with psi = 0; "
+                        "match = 'plane-strain' is recommended", key, math.degrees(layer.phi))
     if layer.model == "von-mises":
         q_y = layer.c_dp if layer.c_dp is not None else mc_to_dp(layer.c, 0.0, _MATCH[layer.match])[1]
         return VonMises(E=layer.E, nu=layer.nu, yield_stress=q_y)
     if layer.model == "drucker-prager":
         if layer.phi_dp is not None:
-            return DruckerPrager(E=layer.E, nu=layer.nu, phi_dp=layer.phi_dp, c_dp=layer.c_dp,
+            return DruckerPrager(E=layer.E, nu=layer.nu, phi_dp=layer.phi_dp, c_dp=c_dp,
                                  dilation=layer.dilation)
-        return DruckerPrager.from_mohr_coulomb(layer.E, layer.nu, layer.c, layer.phi, psi=layer.dilation,
+        return DruckerPrager.from_mohr_coulomb(layer.E, layer.nu, c, layer.phi, psi=layer.dilation,
                                                matching=_MATCH[layer.match])
     if layer.model == "mohr-coulomb":
         try:
             from .smoothed_mc import SmoothedMohrCoulomb
-            return SmoothedMohrCoulomb(E=layer.E, nu=layer.nu, c=layer.c, phi=layer.phi, dilation=layer.dilation)
+            return SmoothedMohrCoulomb(E=layer.E, nu=layer.nu, c=c, phi=layer.phi, dilation=layer.dilation)
         except (ImportError, TypeError) as err:
             raise ValueError(f"{key}.model: 'mohr-coulomb' is not available in the finite-element solver "
                              f"({err}); use von-mises or drucker-prager") from None
@@ -146,15 +167,15 @@ def run_scene(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_op
     ``status = "failed"`` and ``reason``, and the last converged state is written.
     """
     from .indentation import WheelIndentation
-    from .stepping import SolverDivergedError
+    from .stepping import RunInterrupted, SolverDivergedError, stop_on_signals
 
-    if scene.loading.protocol == "rolling-continuous":
+    if scene.loading.protocol.startswith("rolling"):
         from .rolling import run_rolling
         return run_rolling(scene, out_dir, comm, progress=progress, petsc_options=petsc_options,
                            write_fields=write_fields, penalty=penalty)
     if scene.loading.protocol != "indentation":
-        raise ValueError(f"loading.protocol: {scene.loading.protocol!r} is not supported by run_scene yet; "
-                         "supported: 'indentation', 'rolling-continuous'")
+        raise ValueError(f"loading.protocol: {scene.loading.protocol!r} is not supported by run_scene; "
+                         "supported: 'indentation', 'rolling-continuous', 'rolling-constant-load'")
     wheel = _wheel(scene.wheel)
     materials = {k: layer_material(layer, k - 1) for k, layer in enumerate(scene.soil.layers, start=1)}
     out = pathlib.Path(out_dir)
@@ -192,13 +213,18 @@ def run_scene(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_op
 
     status, reason, diagnostics = "ok", "", {}
     try:
-        if progress and root:
-            log.info("indentation: %s wheel d = %g m, %d layer(s), %s mesh: %d cells, %d dofs, %d rank(s)",
-                     scene.wheel.shape, d, len(materials), scene.model.accuracy, tagged.stats.cells, ind.n_dofs,
-                     comm.size)
-        ind.gravity_step()
-        stops = [r * d for r in REPORT_S_OVER_D if r * d < s_max]
-        ind.push(s_max, stops=stops, on_step=on_step)
+        with stop_on_signals():
+            if progress and root:
+                log.info("indentation: %s wheel d = %g m, %d layer(s), %s mesh: %d cells, %d dofs, %d rank(s)",
+                         scene.wheel.shape, d, len(materials), scene.model.accuracy, tagged.stats.cells, ind.n_dofs,
+                         comm.size)
+            ind.gravity_step()
+            stops = [r * d for r in REPORT_S_OVER_D if r * d < s_max]
+            ind.push(s_max, stops=stops, on_step=on_step)
+    except RunInterrupted as err:
+        status, reason = "interrupted", str(err)
+        diagnostics = {"signal": err.signal_name, "last_converged_sinkage_m": ind.sinkage}
+        log.warning("run interrupted: %s", reason)
     except SolverDivergedError as err:
         status, reason = "failed", str(err)
         hist = getattr(err, "history", None) or []
@@ -213,7 +239,7 @@ def run_scene(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_op
         log.error("run failed: %s", reason)
     # sync the status: every rank must agree (a rank-local exception would otherwise hang others)
     statuses = comm.allgather(status)
-    if "failed" in statuses and status == "ok":
+    if "failed" in statuses and status != "failed":
         status, reason = "failed", "failed on another rank"
     if writer is not None:
         try:

@@ -19,10 +19,15 @@ Robustness features (measurements in the README, "Purely frictional soil"):
 * **guards**: ``max_wall_time`` (s) and ``max_iterations`` (total Newton iterations) stop a run
   with :class:`SolverDivergedError` (state restored to the last converged step, message says
   which guard), so a run never hangs.
+* **signals**: inside :func:`stop_on_signals`, SIGINT / SIGTERM / SIGUSR1 do not kill the process;
+  the step being solved finishes and :class:`RunInterrupted` is raised at the next step boundary
+  (all ranks together), so the caller can write its history and summary.
 """
 from __future__ import annotations
 
+import contextlib
 import math
+import signal
 import time
 from dataclasses import dataclass, field
 from typing import Callable
@@ -31,7 +36,8 @@ import numpy as np
 
 from rollsim.log import get_logger
 
-__all__ = ["StepControl", "StepRecord", "ConvergedState", "SolverDivergedError", "solve_load_path"]
+__all__ = ["StepControl", "StepRecord", "ConvergedState", "SolverDivergedError", "RunInterrupted",
+           "solve_load_path", "stop_on_signals"]
 
 log = get_logger("solver")
 
@@ -120,6 +126,60 @@ class SolverDivergedError(RuntimeError):
         self.history = history
 
 
+class RunInterrupted(SolverDivergedError):
+    """A signal asked the run to stop (see :func:`stop_on_signals`); the problem holds the last
+    converged step.  ``signal_name`` is e.g. ``"SIGINT"``."""
+
+    def __init__(self, message: str, last_converged, history, signal_name: str):
+        super().__init__(message, last_converged, history)
+        self.signal_name = signal_name
+
+
+_signals_received: list[int] = []
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGUSR1)
+
+
+@contextlib.contextmanager
+def stop_on_signals(signals=STOP_SIGNALS):
+    """While active, ``signals`` ask :func:`solve_load_path` to stop at the next step boundary
+    (:class:`RunInterrupted`) instead of ending the process.  A second SIGINT ends it at once.
+    Outside the main thread (where Python cannot install handlers) this does nothing.
+
+    Under ``mpirun``, Open MPI forwards SIGUSR1 to every rank and turns SIGINT/SIGTERM into a
+    SIGTERM followed by SIGKILL a moment later; SLURM sends SIGTERM and SIGKILL after its
+    ``KillWait``.  The history is written after every step anyway, so even a hard kill leaves a
+    valid ``history.csv``; ``summary.json`` marked ``"interrupted"`` needs the grace period.
+    """
+    def handler(signum, frame):
+        if signum == signal.SIGINT and _signals_received.count(signal.SIGINT) >= 1:
+            raise KeyboardInterrupt
+        _signals_received.append(signum)
+        log.warning("%s received: stopping after the current step (again to abort at once)",
+                    signal.Signals(signum).name)
+
+    previous = {}
+    try:
+        for sig in signals:
+            previous[sig] = signal.signal(sig, handler)
+    except ValueError:          # not the main thread
+        pass
+    _signals_received.clear()
+    try:
+        yield
+    finally:
+        for sig, old in previous.items():
+            signal.signal(sig, old)
+        _signals_received.clear()
+
+
+def _interrupt_signal(comm) -> str | None:
+    """Name of the signal that asked for a stop on any rank (collective when ``comm`` is given)."""
+    code = _signals_received[0] if _signals_received else 0
+    if comm is not None:
+        code = comm.allreduce(code, op=_mpi_max())
+    return signal.Signals(code).name if code else None
+
+
 def solve_load_path(problem, set_load: Callable[[float], None], control: StepControl = StepControl(),
                     on_step: Callable[[float], dict | None] | None = None, t_start: float = 0.0
                     ) -> list[StepRecord]:
@@ -145,6 +205,11 @@ def solve_load_path(problem, set_load: Callable[[float], None], control: StepCon
         wall = time.perf_counter() - t_wall0
         if comm is not None:
             wall = comm.allreduce(wall, op=_mpi_max())     # all ranks take the same decision
+        stop = _interrupt_signal(comm)
+        if stop is not None:
+            set_load(t)
+            raise RunInterrupted(f"interrupted by {stop} at t={t:g} after {len(history)} steps; last converged "
+                                 "state kept", _snapshot(problem, t), history, stop)
         if wall > control.max_wall_time or its_total >= control.max_iterations:
             set_load(t)
             what = (f"wall-clock limit max_wall_time={control.max_wall_time:g} s"

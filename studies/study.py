@@ -340,6 +340,22 @@ def compare_with_model(scene: Scene, sinkage_m, QV_N, reference_loads) -> dict:
     return row
 
 
+def compare_steady_with_model(scene: Scene, summary: dict) -> dict:
+    """Constant-load rolling: steady sinkage, Q_H, rut depth and rebound of the run, and the
+    bearing-capacity model's sinkage under the same load (no force-sinkage fit: Q_V is constant)."""
+    from rollsim.studies import bearing_capacity as bc
+    steady = summary.get("steady_state") or {}
+    row = {"steady_reached": steady.get("reached"), "steady_sinkage_m": summary.get("sinkage_m"),
+           "QH_N": summary.get("QH_N"), "rut_depth_m": summary.get("rut_depth_m"),
+           "rebound_m": summary.get("rebound_m")}
+    wheel, soil, opts = model_inputs(scene)
+    s_model = float(bc.sinkage(scene.loading.load, wheel, soil, opts).sinkage)
+    row["model_sinkage_m"] = s_model
+    s = row["steady_sinkage_m"]
+    row["ratio"] = s / s_model if s and s_model > 0 else float("nan")
+    return row
+
+
 def model_inputs(scene: Scene):
     """The bearing-capacity model's wheel, soil (top layer, Mohr-Coulomb) and options for a scene."""
     from rollsim.solver.materials import dp_to_mc
@@ -386,7 +402,9 @@ def fe_runner(reference_loads, petsc_options: dict | None = None) -> CaseRunner:
                   "newton_iterations": summary["newton_iterations"]}
         if summary["status"] != "ok":
             result["reason"] = summary.get("reason", "")
-        if len(history[0]) >= 4:  # a failed run's partial curve is still compared
+        if case.scene.loading.protocol == "rolling-constant-load":
+            result["comparison"] = compare_steady_with_model(case.scene, summary)
+        elif len(history[0]) >= 4:  # a failed run's partial curve is still compared
             result["comparison"] = compare_with_model(case.scene, *history, reference_loads)
         return result
     return run

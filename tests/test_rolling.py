@@ -8,13 +8,14 @@ from __future__ import annotations
 import csv
 import json
 
+import numpy as np
 import pytest
 from mpi4py import MPI
 
 from rollsim.geometry import CylinderWheel, MeshOptions, build_soil_block, rolling_block
 from rollsim.scene import parse_scene
 from rollsim.solver import VonMises
-from rollsim.solver.rolling import WheelRolling, run_rolling
+from rollsim.solver.rolling import RollingStep, WheelRolling, detect_steady_state, run_rolling
 from rollsim.solver.run import HISTORY_COLUMNS
 from rollsim.solver.stepping import StepControl
 
@@ -112,4 +113,114 @@ def test_partition_independent_rolling(comm):
 
 def test_other_protocols_refused(comm, tmp_mpi_path):
     with pytest.raises(ValueError, match="loading.protocol"):
-        run_rolling(_scene(0.0, {"protocol": "rolling-constant-load", "load": "133.5 kN", "travel": "1 m"}), tmp_mpi_path, comm, progress=False)
+        run_rolling(_scene(0.0, {"protocol": "indentation", "max_sinkage": "0.1 m"}), tmp_mpi_path, comm,
+                    progress=False)
+
+
+def _synthetic(travels, sinkages, qh):
+    return [RollingStep(step=i + 1, travel=x, sinkage=s, QV=1e5, QH=h, moment=0.0, rotation=0.0, slip=0.0,
+                        contact_area=0.1, max_penetration=0.0, iterations=3, trials=1, cuts=0, plastic=0, time=0.0)
+            for i, (x, s, h) in enumerate(zip(travels, sinkages, qh))]
+
+
+def test_steady_state_detection():
+    """Sinkage rising into the soft soil then flat with an element-passing ripple: steady state is
+    found only once a whole contact-length window lies on the soft soil and the trends are flat;
+    a sinkage still growing by 5 % per window is not steady; steps on the stiff zone never count."""
+    L, x_start, x_soft = 0.2, 0.6, 1.1
+    x = np.arange(0.0, 2.0, 0.02)
+    s = 0.02 + 0.01 * np.clip((x_start + x - x_soft) / 0.3, 0.0, 1.0) + 2e-5 * np.sin(40 * x)
+    qh = 5e3 + 3e3 * np.clip((x_start + x - x_soft) / 0.3, 0.0, 1.0) + 20 * np.cos(35 * x)
+    found = None
+    for n in range(1, len(x) + 1):
+        found = detect_steady_state(_synthetic(x[:n], s[:n], qh[:n]), x_start, x_soft, L, 0.02, 0.05)
+        if found is not None:
+            break
+    assert found is not None and found.reached
+    # the ramp ends at x_start + travel = x_soft + 0.3, and the window (0.2) must be past it mostly
+    assert x_soft + 0.3 - x_start < found.travel < x_soft + 0.3 + 2 * L - x_start
+    assert found.sinkage == pytest.approx(0.03, rel=0.02) and found.QH == pytest.approx(8e3, rel=0.03)
+    assert found.window == L and found.sinkage_change <= 0.02
+    growing = 0.03 * (1 + 0.25 * x)        # +5 % of s per window of 0.2 m
+    assert detect_steady_state(_synthetic(x, growing, qh), x_start, x_soft, L, 0.02, 0.05) is None
+    flat = np.full_like(x, 0.03)
+    on_stiff = x_start + x < x_soft + 0.5 * L
+    assert detect_steady_state(_synthetic(x[on_stiff], flat[on_stiff], qh[on_stiff]), x_start, x_soft, L,
+                               0.02, 0.05) is None
+
+
+def _constant_load_scene(friction=0.0, yield_stress="200 kPa", load="100 kN", travel=0.9 * D):
+    return parse_scene({"wheel": {"diameter": "1.524 m", "width": "0.4572 m", "friction": friction},
+                        "soil": {"gamma": "20 kN/m^3", "layers": [{"model": "von-mises", "E": "40 MPa", "nu": 0.35,
+                                                                   "c_dp": yield_stress}]},
+                        "loading": {"protocol": "rolling-constant-load", "load": load, "travel": travel},
+                        "model": {"accuracy": "fast"}})
+
+
+CL_BLOCK = {"length": 1.6, "half_width": 0.6, "depth": 0.6, "stiff_length": 0.5}   # in d
+
+
+@pytest.mark.serial
+def test_constant_load_rolling(tmp_mpi_path):
+    """rolling-constant-load through run_rolling (fast mesh, short block, serial; the report-size
+    run and the agreement with the continuous protocol are in benchmarks/bench_rolling.py):
+    Q_V is held to load_rtol at every rolled step, the wheel leaves the stiff start zone and sinks
+    deeper into the clay, a steady state is detected (trend of s below steady_rtol over the
+    window), and after the wheel is lifted the permanent rut is shallower than the sinkage
+    (elastic rebound > 0) but deeper than the sinkage on the stiff zone."""
+    comm = MPI.COMM_SELF
+    scene = _constant_load_scene(0.0, "300 kPa", "100 kN", 0.8 * D)
+    summary = run_rolling(scene, tmp_mpi_path, comm, progress=False, write_fields=False, steady_rtol=0.05,
+                          block=CL_BLOCK)
+    assert summary["status"] == "ok", summary.get("reason")
+    ss = summary["steady_state"]
+    assert ss["reached"] and ss["sinkage_change"] <= 0.05 and ss["QH_change"] <= 0.05
+    rows = list(csv.DictReader((tmp_mpi_path / "history.csv").open()))
+    travel = [float(r["travel_m"]) for r in rows]
+    k = travel.index(travel[-1])                # the last rolled step; the lift follows at that travel
+    rolled = [r for r in rows[:k + 1] if float(r["travel_m"]) > 0]
+    lifted = rows[k + 1:]
+    assert len(rolled) >= 8 and lifted and abs(float(lifted[-1]["QV_N"])) < 1e-3 * 100e3
+    for r in rolled:
+        assert float(r["QV_N"]) == pytest.approx(100e3, rel=2e-3)
+        assert abs(float(r["moment_Nm"])) < 1e-6 * 100e3 * D
+    s_stiff = float(rows[0]["sinkage_m"])
+    assert summary["sinkage_m"] == pytest.approx(ss["sinkage"]) and summary["sinkage_m"] > 5 * s_stiff
+    assert summary["QH_N"] > 0
+    assert s_stiff < summary["rut_depth_m"] < summary["sinkage_m"]
+    assert summary["rebound_m"] == pytest.approx(summary["sinkage_m"] - summary["rut_depth_m"])
+    prof = np.loadtxt(tmp_mpi_path / "rut_profile.csv", delimiter=",", skiprows=1)
+    assert prof.shape[1] == 2 and prof[:, 0].min() < summary["rut_window_m"][0]
+    assert (tmp_mpi_path / "rolling.png").stat().st_size > 1000
+
+
+def test_interrupted_run_keeps_history_and_summary(comm, tmp_mpi_path, monkeypatch):
+    """SIGINT during a run (sent to rank 0 only): the step being solved finishes, every rank stops
+    at the next step boundary, history.csv is valid and summary.json says "interrupted"."""
+    import os
+    import signal
+
+    from rollsim.solver import rolling
+    calls = []
+    original = rolling.TravelProgress.update
+
+    def update(self, st):
+        calls.append(st.step)
+        if len(calls) == 2 and comm.rank == 0:
+            os.kill(os.getpid(), signal.SIGINT)
+        return original(self, st)
+
+    monkeypatch.setattr(rolling.TravelProgress, "update", update)
+    before = signal.getsignal(signal.SIGINT)
+    summary = run_rolling(_scene(0.0), tmp_mpi_path, comm, progress=False, write_fields=False, block=BLOCK,
+                          initial_sinkage=0.01 * D)
+    assert summary["status"] == "interrupted"
+    assert summary["diagnostics"]["signal"] == "SIGINT"
+    assert summary["steps"] == len(calls) and 2 <= len(calls) <= 3
+    if comm.rank == 0:
+        s = json.loads((tmp_mpi_path / "summary.json").read_text())
+        assert s["status"] == "interrupted" and "SIGINT" in s["reason"]
+        rows = list(csv.DictReader((tmp_mpi_path / "history.csv").open()))
+        assert len(rows) == s["steps"]
+    assert signal.getsignal(signal.SIGINT) is before      # handlers restored
+    comm.barrier()

@@ -63,12 +63,11 @@ def test_fields_readable_by_pyvista(tmp_path, comm):
     assert deformed.bounds[4] == pytest.approx(-1.5 * 1.524)
 
 
-def test_constant_load_rolling_is_refused_with_the_key(comm, tmp_mpi_path):
+def test_unknown_protocol_is_refused_with_the_key(comm, tmp_mpi_path):
     scene = _scene()
-    rolling = dataclasses.replace(scene, loading=dataclasses.replace(scene.loading, protocol="rolling-constant-load",
-                                                                   max_sinkage=None, load=100e3, travel=1.0))
+    other = dataclasses.replace(scene, loading=dataclasses.replace(scene.loading, protocol="pneumatic-inflation"))
     with pytest.raises(ValueError, match="loading.protocol"):
-        run_scene(rolling, tmp_mpi_path, comm, progress=False)
+        run_scene(other, tmp_mpi_path, comm, progress=False)
 
 
 def test_divergence_is_reported_not_raised(comm, tmp_mpi_path, monkeypatch):

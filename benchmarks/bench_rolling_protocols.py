@@ -1,0 +1,149 @@
+"""The two rolling protocols agree, and the effect of wheel friction at constant load.
+
+    python benchmarks/bench_rolling_protocols.py --out bench_rolling_protocols.json
+    mpirun -n 2 python benchmarks/bench_rolling_protocols.py --load 100 --mu 0 0.8
+
+Soil: report case 2 (von Mises, c_dp = 200 kPa, E = 40 MPa, nu = 0.35, gamma = 20 kN/m^3) unless
+``--yield-stress`` says otherwise; Mn/DOT roller wheel d = 1.524 m, b = 0.4572 m; half block
+(``--length/--half-width/--depth`` in d), ``--accuracy`` preset.
+
+For each friction coefficient mu:
+
+1. ``rolling-constant-load`` at Q_V = ``--load`` kN: pressed on the stiff start zone
+   (``--stiff`` d), rolled until steady, lifted; steady sinkage s_cl, Q_H, rut depth, rebound.
+2. ``rolling-continuous`` on the same block without stiff zone: pressed to s0 and rolled while the
+   sinkage is ramped to ``--s-end`` d over ``--travel`` d; the sinkage s_cont at which the curve
+   Q_V(s) crosses the load (linear interpolation along the run).
+
+Prints s_cl, s_cont and their difference (the issue's agreement criterion is 5 %), Q_H of both,
+the friction effect on the steady sinkage (mu vs the first mu), wall times, steps and trials.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import time
+
+import numpy as np
+from mpi4py import MPI
+
+from rollsim.geometry import CylinderWheel, MeshOptions, build_soil_block, rolling_block
+from rollsim.solver import SolverDivergedError, VonMises
+from rollsim.solver.rolling import WheelRolling, _rut
+
+D, B, GAMMA = 1.524, 0.4572, 20e3
+
+
+def _block(comm, args, stiff):
+    blk = rolling_block(D, length=args.length, half_width=args.half_width, depth=args.depth, stiff_length=stiff)
+    return build_soil_block(comm, blk, MeshOptions.from_accuracy(D, args.accuracy))
+
+
+def constant_load(comm, mu, args):
+    t0 = time.perf_counter()
+    mat = VonMises(E=40e6, nu=0.35, yield_stress=args.yield_stress * 1e3)
+    roll = WheelRolling(_block(comm, args, args.stiff), CylinderWheel(D, B, B / 12), mat, gamma=GAMMA, friction=mu)
+    roll.gravity_step()
+    load = args.load * 1e3
+    out = {"mu": mu, "dofs": roll.n_dofs, "status": "ok"}
+    try:
+        res = roll.press_to_load(load, 0.25 * D)
+        if res.status != "ok":
+            raise SolverDivergedError(f"press: {res.status} {res.reason}", None, [])
+        ss = roll.roll_at_load(load, args.cl_travel * D, x_soft=args.stiff * D, steady_rtol=args.steady_rtol)
+        L = roll.contact_length()
+        roll.lift()
+        rut = _rut(roll, ss, args.stiff * D, L)
+        out.update(steady=ss.reached, s_cl=ss.sinkage, QH_cl=ss.QH, travel_at_steady=ss.travel,
+                   rut_depth=rut["rut_depth_m"], rebound=rut["rebound_m"],
+                   max_rel_moment=max(abs(st.moment) / (load * D) for st in roll.steps if st.travel > 0),
+                   trials=int(sum(st.trials for st in roll.steps)))
+    except SolverDivergedError as err:
+        out["status"] = f"failed: {err}"
+    out.update(steps=len(roll.steps), newton_iterations=roll.newton_iterations, cuts=roll.cuts,
+               time_s=comm.allreduce(time.perf_counter() - t0, op=MPI.MAX),
+               curve=[(st.travel, st.sinkage, st.QV, st.QH) for st in roll.steps])
+    return out
+
+
+def continuous(comm, mu, args):
+    t0 = time.perf_counter()
+    mat = VonMises(E=40e6, nu=0.35, yield_stress=args.yield_stress * 1e3)
+    roll = WheelRolling(_block(comm, args, 0.0), CylinderWheel(D, B, B / 12), mat, gamma=GAMMA, friction=mu)
+    roll.gravity_step()
+    out = {"mu": mu, "status": "ok"}
+    try:
+        roll.press(args.s0 * D)
+        roll.roll(args.travel * D, args.s_end * D)
+    except SolverDivergedError as err:
+        out["status"] = f"failed: {err}"
+    rolled = [st for st in roll.steps if st.travel > 0]
+    q = np.array([st.QV for st in rolled])
+    s = np.array([st.sinkage for st in rolled])
+    qh = np.array([st.QH for st in rolled])
+    load = args.load * 1e3
+    above = np.nonzero(q >= load)[0]
+    if len(above) and above[0] > 0:
+        i = above[0]
+        w = (load - q[i - 1]) / (q[i] - q[i - 1])
+        out.update(s_cont=float(s[i - 1] + w * (s[i] - s[i - 1])), QH_cont=float(qh[i - 1] + w * (qh[i] - qh[i - 1])))
+    else:
+        out["s_cont"] = None
+    out.update(steps=len(roll.steps), newton_iterations=roll.newton_iterations, cuts=roll.cuts,
+               time_s=comm.allreduce(time.perf_counter() - t0, op=MPI.MAX),
+               curve=[(st.travel, st.sinkage, st.QV, st.QH) for st in roll.steps])
+    return out
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--mu", type=float, nargs="+", default=[0.0, 0.8])
+    p.add_argument("--load", type=float, default=100.0, help="Q_V, kN (whole wheel)")
+    p.add_argument("--yield-stress", type=float, default=200.0, help="von Mises yield stress, kPa")
+    p.add_argument("--accuracy", default="fast")
+    p.add_argument("--length", type=float, default=2.4)
+    p.add_argument("--half-width", type=float, default=0.8)
+    p.add_argument("--depth", type=float, default=0.8)
+    p.add_argument("--stiff", type=float, default=0.5, help="stiff start zone length, d")
+    p.add_argument("--cl-travel", type=float, default=1.3, help="constant-load travel limit, d")
+    p.add_argument("--steady-rtol", type=float, default=0.02)
+    p.add_argument("--s0", type=float, default=0.005)
+    p.add_argument("--s-end", type=float, default=0.05)
+    p.add_argument("--travel", type=float, default=1.2, help="continuous protocol travel, d")
+    p.add_argument("--skip-continuous", action="store_true")
+    p.add_argument("--out")
+    args = p.parse_args(argv)
+    comm = MPI.COMM_WORLD
+    results = []
+    for mu in args.mu:
+        cl = constant_load(comm, mu, args)
+        co = None if args.skip_continuous else continuous(comm, mu, args)
+        results.append({"constant_load": cl, "continuous": co})
+        if comm.rank == 0:
+            line = (f"mu = {mu:g}: constant load {cl['status']}, steady {cl.get('steady')}, s = "
+                    f"{1e3 * cl.get('s_cl', float('nan')):.2f} mm, Q_H = {cl.get('QH_cl', float('nan')) / 1e3:.2f} kN, "
+                    f"rut {1e3 * (cl.get('rut_depth') or float('nan')):.2f} mm, rebound "
+                    f"{1e3 * (cl.get('rebound') or float('nan')):.2f} mm, |M|/(Q d) <= {cl.get('max_rel_moment', 0):.1e}, "
+                    f"{cl['steps']} steps, {cl['time_s']:.0f} s")
+            if co is not None:
+                line += (f"\n          continuous {co['status']}: s at Q_V = {args.load:g} kN: "
+                         + (f"{1e3 * co['s_cont']:.2f} mm (Q_H {co['QH_cont'] / 1e3:.2f} kN); constant-load / "
+                            f"continuous - 1 = {100 * (cl.get('s_cl', np.nan) / co['s_cont'] - 1):+.1f} %"
+                            if co.get("s_cont") else "not reached")
+                         + f", {co['steps']} steps, {co['time_s']:.0f} s")
+            print(line, flush=True)
+    if comm.rank == 0 and len(results) > 1:
+        base = results[0]["constant_load"].get("s_cl")
+        for r in results[1:]:
+            s = r["constant_load"].get("s_cl")
+            if base and s:
+                print(f"friction effect on the steady sinkage: mu = {r['constant_load']['mu']:g} vs "
+                      f"{results[0]['constant_load']['mu']:g}: {100 * (s / base - 1):+.1f} %")
+    if comm.rank == 0 and args.out:
+        with open(args.out, "w") as f:
+            json.dump({"args": vars(args), "ranks": comm.size, "results": results}, f, indent=1)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
