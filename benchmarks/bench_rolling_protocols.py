@@ -3,8 +3,8 @@
     python benchmarks/bench_rolling_protocols.py --out bench_rolling_protocols.json
     mpirun -n 2 python benchmarks/bench_rolling_protocols.py --load 100 --mu 0 0.8
 
-Soil: report case 2 (von Mises, c_dp = 200 kPa, E = 40 MPa, nu = 0.35, gamma = 20 kN/m^3) unless
-``--yield-stress`` says otherwise; Mn/DOT roller wheel d = 1.524 m, b = 0.4572 m; half block
+Soil: clay, von Mises q_y = ``--yield-stress`` (default 300 kPa, i.e. c = 150 kPa), E = 40 MPa,
+nu = 0.35, gamma = 20 kN/m^3; Mn/DOT roller wheel d = 1.524 m, b = 0.4572 m; half block
 (``--length/--half-width/--depth`` in d), ``--accuracy`` preset.
 
 For each friction coefficient mu:
@@ -99,7 +99,7 @@ def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--mu", type=float, nargs="+", default=[0.0, 0.8])
     p.add_argument("--load", type=float, default=100.0, help="Q_V, kN (whole wheel)")
-    p.add_argument("--yield-stress", type=float, default=200.0, help="von Mises yield stress, kPa")
+    p.add_argument("--yield-stress", type=float, default=300.0, help="von Mises yield stress, kPa")
     p.add_argument("--accuracy", default="fast")
     p.add_argument("--length", type=float, default=2.4)
     p.add_argument("--half-width", type=float, default=0.8)
@@ -108,7 +108,7 @@ def main(argv=None) -> int:
     p.add_argument("--cl-travel", type=float, default=1.3, help="constant-load travel limit, d")
     p.add_argument("--steady-rtol", type=float, default=0.02)
     p.add_argument("--s0", type=float, default=0.005)
-    p.add_argument("--s-end", type=float, default=0.05)
+    p.add_argument("--s-end", type=float, default=0.03)
     p.add_argument("--travel", type=float, default=1.2, help="continuous protocol travel, d")
     p.add_argument("--skip-continuous", action="store_true")
     p.add_argument("--out")

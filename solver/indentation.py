@@ -38,7 +38,7 @@ from rollsim.log import get_logger
 
 from .contact import RigidWheelContact
 from .problem import PlasticityProblem
-from .stepping import SolverDivergedError, StepControl, solve_load_path
+from .stepping import RunInterrupted, SolverDivergedError, StepControl, solve_load_path
 
 __all__ = ["WheelIndentation", "IndentationStep", "LoadControlResult", "symmetry_factor",
            "DEFAULT_STEP_CONTROL", "DEFAULT_PETSC_OPTIONS"]
@@ -324,6 +324,8 @@ class WheelIndentation:
             s_hi, Q_hi = br.args
             if s_hi is not None:
                 bracket = (s_hi, Q_hi)
+        except RunInterrupted:
+            raise
         except SolverDivergedError as err:
             self._absorb(err.history, n_before)
             self.set_sinkage(self.sinkage)

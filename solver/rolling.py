@@ -254,13 +254,17 @@ class WheelRolling:
         """Vertical push at the current position to the sinkage ``s0`` (m), displacement control."""
         control = control or StepControl(t_end=1.0, dt=0.25, dt_min=1e-3, dt_max=0.5, easy_iterations=8,
                                          max_cuts=8)
-        x, s_from, th = self.position, self.sinkage, self.rotation
-        if s0 <= s_from:
+        if s0 <= self.sinkage:
             return self.steps
+        return self._move_vertically(s0, control, on_step)
+
+    def _move_vertically(self, s_to: float, control: StepControl, on_step) -> list[RollingStep]:
+        """Displacement-controlled vertical move of the wheel from the current sinkage to ``s_to``."""
+        x, s_from, th = self.position, self.sinkage, self.rotation
 
         def set_load(t):
             self._attempts += 1
-            self.contact.set_pose(centre=self._centre(x, s_from + (s0 - s_from) * t), angle=th)
+            self.contact.set_pose(centre=self._centre(x, s_from + (s_to - s_from) * t), angle=th)
 
         def on_t(t):
             st = self._record(dx=0.0, dth=0.0, iterations=int(self.problem.snes.getIterationNumber()), trials=1)
@@ -328,22 +332,8 @@ class WheelRolling:
         """Lift the wheel vertically off the soil at the current position (displacement control in
         four steps, to 0.1 % of R above the undisturbed surface): the soil rebounds, and the
         surface keeps only the permanent rut."""
-        x, s_from, th = self.position, self.sinkage, self.rotation
-        s_to = -1e-3 * self.R
-        control = StepControl(t_end=1.0, dt=0.25, dt_min=1e-3, dt_max=0.25, max_cuts=8)
-
-        def set_load(t):
-            self._attempts += 1
-            self.contact.set_pose(centre=self._centre(x, s_from + (s_to - s_from) * t), angle=th)
-
-        def on_t(t):
-            st = self._record(dx=0.0, dth=0.0, iterations=int(self.problem.snes.getIterationNumber()), trials=1)
-            if on_step is not None:
-                on_step(st)
-            return {"QV": st.QV}
-
-        self._run(set_load, control, on_t)
-        return self.steps
+        return self._move_vertically(-1e-3 * self.R, StepControl(t_end=1.0, dt=0.25, dt_min=1e-3, dt_max=0.25,
+                                                                 max_cuts=8), on_step)
 
     def press_to_load(self, load: float, sinkage_limit: float,
                       on_step: Callable[[RollingStep], None] | None = None) -> "LoadControlResult":

@@ -243,6 +243,23 @@ def run_report(directory) -> pathlib.Path:
     if (out / "plastic_zone.png").is_file():
         text += ["![plastic zone](plastic_zone.png)", "",
                  "*Equivalent plastic strain on the deformed soil at the last converged step.*", ""]
+    steady = summary.get("steady_state")
+    if steady:
+        s_model = float(bc.sinkage(scene.loading.load, wheel, soil, opts).sinkage)
+        rut = summary.get("rut_depth_m")
+        text += ["## Constant-load rolling", "",
+                 "| quantity | value |", "|---|---|",
+                 f"| steady state | {'reached' if steady['reached'] else 'not reached'} at travel "
+                 f"{steady['travel']:.3f} m (window {steady['window']:.3f} m) |",
+                 f"| steady sinkage | {1e3 * summary['sinkage_m']:.2f} mm (bearing-capacity model: "
+                 f"{1e3 * s_model:.2f} mm) |",
+                 f"| Q_H (towing force) | {summary['QH_N'] / 1e3:.2f} kN |",
+                 f"| rut depth / rebound | " + (f"{1e3 * rut:.2f} mm / {1e3 * summary['rebound_m']:.2f} mm |"
+                                                if rut is not None else "not measured |"), ""]
+        for name, caption in (("rolling.png", "Sinkage, rut profile and forces against travel."),
+                              ("rut.png", "The rut after lift-off (displacement x 5), plastic strain.")):
+            if (out / name).is_file():
+                text += [f"![{name}]({name})", "", f"*{caption}*", ""]
     path = out / "report.md"
     atomic_write_text(path, "\n".join(text))
     return path

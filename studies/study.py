@@ -245,7 +245,8 @@ def run_study(study: Study, out, comm: MPI.Comm, runner: CaseRunner, *, quiet: b
     """Run the study's unfinished cases over ``comm`` and write ``results.csv``; returns the rows.
 
     Ranks are split into groups of ``ranks_per_case``; group g runs the unfinished
-    cases g, g + G, ... A failing case is recorded as failed and the others go on.
+    cases g, g + G, ... A failing case is recorded as failed and the others go on; a case
+    interrupted by a signal (SIGINT/SIGTERM/SIGUSR1) stops its group and is rerun on resume.
     """
     out = pathlib.Path(out)
     if comm.rank == 0:
@@ -279,6 +280,10 @@ def run_study(study: Study, out, comm: MPI.Comm, runner: CaseRunner, *, quiet: b
             except Exception as e:  # a failing case must not stop the others
                 log.warning("case %s failed: %s", case.name, e)
                 summary = {"status": "failed", "reason": f"{type(e).__name__}: {e}"}
+            if summary.get("status") == "interrupted":
+                # a signal stopped the run: leave the case unfinished (rerun on resume) and stop
+                log.warning("case %s interrupted: the study stops here; run it again to resume", case.name)
+                break
             summary.setdefault("wall_time_s", time.perf_counter() - t0)
             summary["case"] = case.name
             if sub.rank == 0:

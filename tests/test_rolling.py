@@ -192,6 +192,9 @@ def test_constant_load_rolling(tmp_mpi_path):
     prof = np.loadtxt(tmp_mpi_path / "rut_profile.csv", delimiter=",", skiprows=1)
     assert prof.shape[1] == 2 and prof[:, 0].min() < summary["rut_window_m"][0]
     assert (tmp_mpi_path / "rolling.png").stat().st_size > 1000
+    from rollsim.studies.report import run_report
+    text = run_report(tmp_mpi_path).read_text()
+    assert "## Constant-load rolling" in text and "rolling.png" in text and "rut depth" in text
 
 
 def test_interrupted_run_keeps_history_and_summary(comm, tmp_mpi_path, monkeypatch):

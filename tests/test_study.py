@@ -85,13 +85,19 @@ def runs(log_dir: pathlib.Path, name: str) -> int:
     return len(list(log_dir.glob(f"{name}.*.ran")))
 
 
-def test_resume_after_kill_and_failure_isolation(tmp_mpi_path):
-    comm = MPI.COMM_WORLD
-    study = st.load_study(write_study(tmp_mpi_path, GRID))
-    out, log_dir = tmp_mpi_path / "out", tmp_mpi_path / "log"
+def _grid_study(tmp, comm):
+    """The GRID study with its output and run-marker directories."""
+    study = st.load_study(write_study(tmp, GRID))
+    out, log_dir = tmp / "out", tmp / "log"
     if comm.rank == 0:
         log_dir.mkdir()
     comm.barrier()
+    return study, out, log_dir
+
+
+def test_resume_after_kill_and_failure_isolation(tmp_mpi_path):
+    comm = MPI.COMM_WORLD
+    study, out, log_dir = _grid_study(tmp_mpi_path, comm)
     failing = study.cases[1].name
     rows = st.run_study(study, out, comm, counting_runner(log_dir, fail={failing}), quiet=True)
     assert [r["status"] for r in rows].count("ok") == 7
@@ -109,6 +115,28 @@ def test_resume_after_kill_and_failure_isolation(tmp_mpi_path):
     assert not list(out.rglob("*.tmp"))
     lines = (out / "results.csv").read_text().splitlines()
     assert len(lines) == 1 + len(study.cases) and lines[0].startswith("case,")
+
+
+def test_interrupted_case_stops_the_study_and_is_rerun(tmp_mpi_path):
+    """A case whose run was stopped by a signal (status "interrupted") is not recorded as done: its
+    group stops there, and the next run of the study does that case and the rest."""
+    comm = MPI.COMM_WORLD
+    study, out, log_dir = _grid_study(tmp_mpi_path, comm)
+    stopped = study.cases[2].name
+    base = counting_runner(log_dir)
+
+    def interrupted_once(case, case_dir, sub):
+        if case.name == stopped:
+            return {"status": "interrupted", "reason": "interrupted by SIGINT"}
+        return base(case, case_dir, sub)
+
+    rows = st.run_study(study, out, comm, interrupted_once, quiet=True)
+    assert next(r for r in rows if r["case"] == stopped)["status"] == "not run"
+    assert not (out / "cases" / stopped / "summary.json").exists()
+    assert runs(log_dir, study.cases[-1].name) == 0 or comm.size > 1   # one group: nothing after it ran
+    rows = st.run_study(study, out, comm, base, quiet=True)
+    assert all(r["status"] == "ok" for r in rows)
+    assert all(runs(log_dir, c.name) == 1 for c in study.cases)
 
 
 def test_atomic_write_keeps_old_file_on_crash(tmp_path, monkeypatch):
