@@ -40,7 +40,21 @@ import math
 from dataclasses import dataclass
 
 __all__ = ["VonMises", "DruckerPrager", "mc_to_dp", "dp_to_mc", "von_mises_from_tresca", "jaky_k0",
-           "admissible_k0"]
+           "admissible_k0", "C_REG_DEFAULT", "PHI_COMPRESSION_MATCH_LIMIT", "regularised_cohesion"]
+
+#: Regularising ("numerical") cohesion, Pa, put in place of c = 0 by :func:`regularised_cohesion`
+#: (and by ``solver.run.layer_material`` for scene layers).  It is NOT negligible for a wheel: near
+#: the surface the frictional strength gamma z tan(phi) is itself of order 1 kPa.  Measured
+#: (README_c0.md, 3D wheel, phi = 40 deg, psi = 0, fast mesh): Q_V at s/d = 0.02 is 18.1 / 21.9 /
+#: 25.3 / 31.1 kN for c_reg = 0 / 0.5 / 1 / 2 kPa, and halving c_reg from 1 kPa lowers Q_V by 9 % /
+#: 17 % at s/d = 0.05 / 0.1; c = 0 exactly runs too, about 2.5x slower.
+C_REG_DEFAULT = 1.0e3
+
+#: Above this Mohr-Coulomb angle (asin 0.6 = 36.87 deg) the compression-matched Drucker-Prager cone
+#: has tan(phi_dp) >= 1.5: it has no extension-matched Mohr-Coulomb angle, i.e. it is stronger in
+#: triaxial extension than any Mohr-Coulomb material.  With psi = 0 such cones stalled the 3D wheel
+#: indentation at s/d < 0.002 (README_c0.md); prefer the plane-strain match there.
+PHI_COMPRESSION_MATCH_LIMIT = math.asin(0.6)
 
 MATCHINGS = ("compression", "extension", "plane_strain")
 
@@ -190,6 +204,22 @@ def dp_to_mc(phi_dp: float, c_dp: float, matching: str = "compression") -> tuple
         phi = math.asin(s)
         c = c_dp * math.sqrt(3 + s * s) / (3 * math.cos(phi))
     return c, phi
+
+
+def regularised_cohesion(c: float, phi: float, c_reg: float = C_REG_DEFAULT) -> tuple[float, bool]:
+    """Cohesion to use for a soil with (c [Pa], phi [rad]): ``(c_reg, True)`` for a purely frictional
+    soil (``c == 0``, ``phi > 0``), else ``(c, False)``.
+
+    A small cohesion keeps the stress-free surface inside the yield surface (the cone's apex moves
+    to the tensile mean stress ``c_reg cot(phi)``), so near-surface points are elastic rather than
+    on the apex, whose tangent is zero.  It is a numerical device, not soil data, and it raises
+    the wheel force measurably (:data:`C_REG_DEFAULT`): callers must report it, and results should
+    be checked against smaller values (``benchmarks/bench_frictional_wheel.py --creg 1 0.5 0``)."""
+    if not (math.isfinite(c_reg) and c_reg > 0):
+        raise ValueError(f"c_reg must be a positive finite number (Pa), got {c_reg!r}")
+    if c == 0 and phi > 0:
+        return float(c_reg), True
+    return c, False
 
 
 def von_mises_from_tresca(E: float, nu: float, c: float) -> VonMises:

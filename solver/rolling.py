@@ -641,7 +641,7 @@ def run_rolling(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_
     ``block``: keywords of :func:`rolling_mesh` (length/half_width/depth in d).  A signal
     (SIGINT/SIGTERM/SIGUSR1) stops the run after the current step with ``status = "interrupted"``.
     """
-    from .run import _atomic_write, _history_csv, _wheel, finish_run, layer_material
+    from .run import _atomic_write, _history_csv, _wheel, finish_run, layer_material, regularised_layers
     from .stepping import RunInterrupted, stop_on_signals
 
     protocol = scene.loading.protocol
@@ -799,6 +799,8 @@ def run_rolling(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_
         summary["files"]["travel_plot"] = "rolling.png"
     else:
         summary["model"].update(initial_sinkage_m=s0, ramp_m=travel if ramp is None else ramp)
+    if regularised_layers(scene):
+        summary["model"]["regularising_cohesion_Pa"] = regularised_layers(scene)
     if diagnostics:
         summary["diagnostics"] = diagnostics
     if root and rows:

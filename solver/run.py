@@ -98,6 +98,21 @@ def layer_material(layer, index: int = 0):
                      "(use von-mises, drucker-prager or mohr-coulomb)")
 
 
+def regularised_layers(scene) -> dict:
+    """``{"soil.layers[i]": c_reg (Pa)}`` for the purely frictional layers that ``layer_material``
+    gives the regularising cohesion (reported in summary.json: it raises Q_V measurably)."""
+    from .materials import C_REG_DEFAULT
+    out = {}
+    for i, layer in enumerate(scene.soil.layers):
+        if layer.model == "drucker-prager" and layer.phi_dp is not None:
+            c, angle = layer.c_dp, layer.phi_dp
+        else:
+            c, angle = layer.c, layer.phi
+        if layer.model != "von-mises" and c == 0 and angle is not None and angle > 0:
+            out[f"soil.layers[{i}]"] = C_REG_DEFAULT
+    return out
+
+
 def scene_mesh(scene, comm: MPI.Comm):
     """Quarter indentation block for the scene (layers from the scene, accuracy preset)."""
     from rollsim.geometry import MeshOptions, build_soil_block, indentation_block
@@ -283,6 +298,8 @@ def run_scene(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_op
                   if write_fields else [], "plot": "force_sinkage.png",
                   "plastic_zone": "plastic_zone.png" if write_fields else None},
     }
+    if regularised_layers(scene):
+        summary["model"]["regularising_cohesion_Pa"] = regularised_layers(scene)
     if diagnostics:
         summary["diagnostics"] = diagnostics
     return finish_run(out, rows, scene, summary, comm, progress=progress)

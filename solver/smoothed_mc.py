@@ -59,7 +59,9 @@ class SmoothedMohrCoulomb(_Elastic):
     """Abbo-Sloan smoothed Mohr-Coulomb: ``c`` (Pa), ``phi``, ``dilation`` (rad).
 
     ``transition_angle`` theta_T (rad, in (0, 30 deg)); ``apex_rounding`` a (Pa, the hyperbola
-    parameter; default ``0.05 c cot(phi)``; required > 0 when c = 0 and phi > 0).
+    parameter; default ``0.05 c cot(phi)``; required > 0 when c = 0 and phi > 0; at most
+    ``c cot(phi)``: ``a = c cot(phi)`` puts the rounded tip at the stress-free state, a surface with
+    no tensile strength that approaches the cone of cohesion c at large stresses).
     """
 
     c: float
@@ -87,9 +89,9 @@ class SmoothedMohrCoulomb(_Elastic):
         if self.c == 0 and (a is None or a <= 0):
             raise ValueError("apex_rounding must be given (> 0, Pa) when c = 0: the default 0.05 c cot(phi) "
                              "vanishes")
-        if a is not None and self.phi > 0 and a >= self.c / math.tan(self.phi) and self.c > 0:
-            raise ValueError(f"apex_rounding must be smaller than c cot(phi) = {self.c / math.tan(self.phi)!r}, "
-                             f"got {a!r}")
+        if a is not None and self.phi > 0 and self.c > 0 and a > self.c / math.tan(self.phi) * (1 + 1e-12):
+            raise ValueError(f"apex_rounding must not exceed c cot(phi) = {self.c / math.tan(self.phi)!r} (the "
+                             f"rounded tip would lie in compression), got {a!r}")
 
     # ------------------------------------------------------------ parameters
     @property
@@ -342,7 +344,7 @@ def _newton(sig_tr, scale, D, sphi, spsi, a2, ccos, thT, sig0, dl0, max_it, free
         if np.any(conv):
             c = act[conv]
             out_sig[c], out_dl[c] = sig[conv], dl[conv]
-            Jinv[c] = np.linalg.inv(jac(sig[conv], dl[conv], nf[conv], ng[conv]))
+            Jinv[c] = _inverse(jac(sig[conv], dl[conv], nf[conv], ng[conv]), nc)
             ok[c] = True
             keep = ~conv
             act, sig, dl, r, nf, ng, fr, st = (act[keep], sig[keep], dl[keep], r[keep], nf[keep], ng[keep],
@@ -350,7 +352,7 @@ def _newton(sig_tr, scale, D, sphi, spsi, a2, ccos, thT, sig0, dl0, max_it, free
         if act.size == 0 or it == max_it:
             break
         J = jac(sig, dl, nf, ng)
-        step = -np.linalg.solve(J, r[:, :, None])[:, :, 0]
+        step = -_solve(J, r)
         alpha = np.ones(act.size)
         r0 = np.linalg.norm(r, axis=1)
         todo = np.ones(act.size, bool)
@@ -369,6 +371,37 @@ def _newton(sig_tr, scale, D, sphi, spsi, a2, ccos, thT, sig0, dl0, max_it, free
             alpha[ti] *= 0.5
     out_sig[~ok] = np.nan
     return out_sig, out_dl, ok, Jinv
+
+
+def _inverse(J, nc):
+    """Inverses of the local Jacobians.  A singular one (a point frozen on the surface where the
+    potential has no gradient: psi = 0 at the rounded tip, J2 = 0) gets ``[[I, 0], [0, 0]]``, i.e.
+    the elastic tangent: its stress is the trial stress (dlam = 0)."""
+    try:
+        return np.linalg.inv(J)
+    except np.linalg.LinAlgError:
+        out = np.zeros_like(J)
+        for i in range(J.shape[0]):
+            try:
+                out[i] = np.linalg.inv(J[i])
+            except np.linalg.LinAlgError:
+                out[i, :nc, :nc] = np.eye(nc)
+        return out
+
+
+def _solve(J, r):
+    """Newton steps ``J^-1 r`` per point; zero for a singular Jacobian (the point then does not
+    converge and takes the restart / tip fallback)."""
+    try:
+        return np.linalg.solve(J, r[:, :, None])[:, :, 0]
+    except np.linalg.LinAlgError:
+        out = np.zeros_like(r)
+        for i in range(J.shape[0]):
+            try:
+                out[i] = np.linalg.solve(J[i], r[i])
+            except np.linalg.LinAlgError:
+                pass
+        return out
 
 
 def mohr_coulomb_exact(sigma: np.ndarray, c: float, phi: float) -> np.ndarray:

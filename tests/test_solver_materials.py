@@ -249,3 +249,69 @@ def test_prandtl_smoothed_mohr_coulomb_phi20(comm):
     assert abs(res.pressure[-1] / res.pressure[-2] - 1) < 1e-3
     assert abs(res.limit_pressure / exact - 1) < 0.03, res.limit_pressure / exact - 1
     assert max(res.iterations) <= 15
+
+
+# ----------------------------------------------------------------------------- purely frictional soil (c = 0)
+def test_smoothed_mc_psi0_point_at_the_rounded_tip_does_not_crash():
+    """psi = 0 with the rounded tip at the stress-free state (a = c cot(phi), allowed now): a point
+    exactly on the surface at the tip (J2 = 0) has no flow direction (dg/dsigma = 0), so its local
+    Jacobian is singular.  That used to raise numpy's LinAlgError out of the global Newton
+    (measured in the 3D wheel run); it now keeps the trial stress with the elastic tangent, and a
+    tensile trial state still returns to the tip."""
+    c, phi = 1e3, 40 * DEG
+    mat = SmoothedMohrCoulomb(E=E, nu=NU, c=c, phi=phi, dilation=0.0, apex_rounding=c / math.tan(phi))
+    assert mat.tip_mean_stress == pytest.approx(0.0, abs=1e-9)
+    assert yield_function(mat, np.zeros((1, 6)))[0] == pytest.approx(0.0, abs=1e-9)
+    with pytest.raises(ValueError, match="apex_rounding"):
+        SmoothedMohrCoulomb(E=E, nu=NU, c=c, phi=phi, apex_rounding=1.01 * c / math.tan(phi))
+    sig_n = np.zeros((3, 6))
+    deps = np.zeros((3, 6))
+    deps[1, :3] = 1e-4                      # hydrostatic tension: beyond the tip
+    sig_n[2, :3] = -1e4                     # pure shear from 10 kPa confinement: a smooth return
+    deps[2, 3] = 1e-3
+    res = return_map(mat, sig_n, deps)
+    D = elastic_stiffness(mat, 6)
+    assert np.allclose(res.sigma[0], 0.0) and np.allclose(res.tangent[0], D)
+    assert res.state[1] == APEX and np.allclose(res.sigma[1], 0.0, atol=1e-9)
+    assert res.state[2] == PLASTIC
+    assert abs(yield_function(mat, res.sigma[2:3])[0]) < 1e-9 * E * 1e-3
+
+
+def test_regularised_cohesion_and_scene_layers():
+    """c = 0 layers get the regularising cohesion C_REG_DEFAULT, and the log says so; c > 0 is untouched."""
+    import logging
+
+    from rollsim.scene import parse_scene
+    from rollsim.solver.materials import C_REG_DEFAULT, regularised_cohesion
+    from rollsim.solver.run import layer_material
+    assert regularised_cohesion(0.0, 40 * DEG) == (C_REG_DEFAULT, True)
+    assert regularised_cohesion(5e3, 40 * DEG) == (5e3, False)
+    assert regularised_cohesion(0.0, 40 * DEG, c_reg=500.0) == (500.0, True)
+    with pytest.raises(ValueError, match="c_reg"):
+        regularised_cohesion(0.0, 40 * DEG, c_reg=0.0)
+    layers = [{"model": "drucker-prager", "E": 4e7, "nu": 0.35, "c": 0, "phi": 40, "match": "plane-strain",
+               "thickness": 0.3},
+              {"model": "drucker-prager", "E": 4e7, "nu": 0.35, "c": 0, "phi": 40, "thickness": 0.3},
+              {"model": "mohr-coulomb", "E": 4e7, "nu": 0.35, "c": 0, "phi": 40, "thickness": 0.3},
+              {"model": "drucker-prager", "E": 4e7, "nu": 0.35, "c": 10e3, "phi": 30}]
+    sc = parse_scene({"wheel": {"diameter": 1.0, "width": 0.3}, "soil": {"gamma": 20e3, "layers": layers},
+                      "loading": {"protocol": "indentation", "max_sinkage": 0.1}})
+    records = []
+    handler = logging.Handler(logging.WARNING)
+    handler.emit = records.append            # the rollsim logger may not propagate (CLI setup)
+    logger = logging.getLogger("rollsim.run")
+    logger.addHandler(handler)
+    try:
+        mats = [layer_material(layer, i) for i, layer in enumerate(sc.soil.layers)]
+    finally:
+        logger.removeHandler(handler)
+    s = math.sin(40 * DEG)
+    assert mats[0].c_dp == pytest.approx(3 * C_REG_DEFAULT * math.cos(40 * DEG) / math.sqrt(3 + s * s))
+    assert mats[1].c_dp == pytest.approx(6 * C_REG_DEFAULT * math.cos(40 * DEG) / (3 - s))
+    assert mats[2].c == C_REG_DEFAULT
+    assert mats[3].c_dp == pytest.approx(6 * 10e3 * math.cos(30 * DEG) / (3 - math.sin(30 * DEG)))
+    text = "\n".join(r.getMessage() for r in records)
+    assert text.count("regularising cohesion") == 3 and "soil.layers[3]" not in text
+    assert "plane-strain" in text and "soil.layers[1]: compression-matched" in text
+    from rollsim.solver.run import regularised_layers     # what summary.json reports
+    assert regularised_layers(sc) == {f"soil.layers[{i}]": C_REG_DEFAULT for i in range(3)}
