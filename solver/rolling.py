@@ -360,6 +360,7 @@ class WheelRolling:
 
     def roll_at_load(self, load: float, travel: float, *, x_soft: float | None = None,
                      steady_rtol: float = 0.02, steady_qh_rtol: float = 0.05, run_out: float = 1.0,
+                     min_window_elements: float = 3.0,
                      on_step: Callable[[RollingStep], None] | None = None,
                      control: StepControl | None = None) -> "SteadyState":
         """Roll at constant whole-wheel ``Q_V = load`` (N), towed, up to ``travel`` (m) in +x.
@@ -369,7 +370,8 @@ class WheelRolling:
         solve per trial, warm-started).  Steady state (see :func:`detect_steady_state`): once the
         whole window lies on the soil beyond ``x_soft`` (m, the end of the stiff start zone;
         default: the start position), sinkage and ``Q_H`` trends over a window of one contact
-        length (at least one contact element) change by less than ``steady_rtol`` /
+        length (at least ``min_window_elements`` contact elements: on coarse meshes the force and
+        sinkage ripple as the wheel passes elements) change by less than ``steady_rtol`` /
         ``steady_qh_rtol``.  The wheel then rolls ``run_out`` windows further (the rut behind it
         is then unloaded) and stops.  Default ``control``: fixed steps of a quarter element.
         Returns the :class:`SteadyState` (``reached = False`` when ``travel`` ran out first)."""
@@ -384,7 +386,8 @@ class WheelRolling:
             if on_step is not None:
                 on_step(st)
             if not found:
-                window = max(self.contact_length(st), self.contact.h)   # >= one element: averages the ripple
+                # the element-passing ripple has the period of a contact element: average >= 3 of them
+                window = max(self.contact_length(st), min_window_elements * self.contact.h)
                 ss = detect_steady_state(self.steps, self.x_start, x_soft, window, steady_rtol, steady_qh_rtol)
                 if ss is not None:
                     found.append(ss)
@@ -623,7 +626,7 @@ def rolling_mesh(scene, comm: MPI.Comm, *, length: float | None = None, half_wid
 def run_rolling(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_options: dict | None = None,
                 write_fields: bool = True, penalty: float | None = None, initial_sinkage: float | None = None,
                 ramp: float | None = None, block: dict | None = None, moment_rtol: float = 2e-3,
-                steady_rtol: float = 0.02, steady_qh_rtol: float = 0.05) -> dict:
+                steady_rtol: float = 0.02, steady_qh_rtol: float = 0.05, min_window_elements: float = 3.0) -> dict:
     """A rolling protocol of ``scene`` on ``comm``; writes the run directory of
     ``shared/spec/interfaces.md`` (as :func:`~rollsim.solver.run.run_scene`) and returns the summary.
 
@@ -705,7 +708,8 @@ def run_rolling(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_
                                                 f"{res.reason}")
                 else:
                     steady = roll.roll_at_load(scene.loading.load, travel, x_soft=x_soft, on_step=on_step,
-                                               steady_rtol=steady_rtol, steady_qh_rtol=steady_qh_rtol)
+                                               steady_rtol=steady_rtol, steady_qh_rtol=steady_qh_rtol,
+                                               min_window_elements=min_window_elements)
                     if not steady.reached:
                         log.warning("no steady state within the travel of %g m: the values are those of the last "
                                     "step (a longer travel or a coarser steady tolerance may help)", travel)
@@ -787,7 +791,7 @@ def run_rolling(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_
     }
     if constant_load:
         summary["model"].update(stiff_zone_end_m=x_soft, load_rtol=roll.load_rtol, steady_rtol=steady_rtol,
-                                steady_qh_rtol=steady_qh_rtol)
+                                steady_qh_rtol=steady_qh_rtol, steady_min_window_elements=min_window_elements)
         if steady is not None:
             summary["steady_state"] = dataclasses.asdict(steady)
             summary.update(sinkage_m=steady.sinkage, QH_N=steady.QH, QV_N=steady.QV)

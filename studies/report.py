@@ -277,4 +277,7 @@ def _scene_input(echo: dict) -> dict:
     for layer in data["soil"]["layers"]:
         if "c" not in layer:
             layer.pop("match", None)
+        if layer.get("model") == "von-mises":      # the echo carries phi_dp = 0: not a von Mises key
+            layer.pop("phi_dp", None)
+            layer.pop("phi", None)
     return data

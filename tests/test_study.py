@@ -215,3 +215,20 @@ def test_shipped_studies_validate(name):
     study = st.load_study(ROOT / "studies" / "examples" / name)
     assert study.cases and all(c.scene.model.accuracy == "fast" for c in study.cases if study.runner == "fe")
     assert "estimated cost" in st.dry_run_lines(study)[-1]
+
+
+@pytest.mark.parametrize("layer", [
+    {"model": "von-mises", "E": "40 MPa", "nu": 0.35, "c_dp": "200 kPa"},
+    {"model": "von-mises", "E": "40 MPa", "nu": 0.35, "c": "100 kPa"},
+    {"model": "drucker-prager", "E": "40 MPa", "nu": 0.35, "phi_dp": "27.5 deg", "c_dp": "194.6 kPa"},
+    {"model": "mohr-coulomb", "E": "40 MPa", "nu": 0.35, "c": "10 kPa", "phi": "30 deg"},
+])
+def test_summary_scene_echo_round_trips(layer):
+    """rollsim report rebuilds the scene from summary.json's echo: every layer kind parses back to
+    the same scene (a von Mises echo carries phi_dp = 0, which is not a von Mises key)."""
+    from rollsim.scene import parse_scene
+    from rollsim.studies.report import _scene_input
+    scene = parse_scene({"wheel": {"diameter": "1.524 m", "width": "0.4572 m"},
+                         "soil": {"gamma": "20 kN/m^3", "layers": [layer]},
+                         "loading": {"protocol": "rolling-constant-load", "load": "100 kN", "travel": "1 m"}})
+    assert parse_scene(_scene_input(scene.to_dict())) == scene
