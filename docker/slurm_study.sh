@@ -7,6 +7,9 @@
 #SBATCH --cpus-per-task=1
 #SBATCH --time=04:00:00
 #SBATCH --output=rollsim-%j.log
+# Two minutes before the time limit every rank gets SIGUSR1: the running cases stop at their next
+# step boundary with status "interrupted" (not recorded as done), so a re-submission redoes them.
+#SBATCH --signal=USR1@120
 set -euo pipefail
 
 study=${1:?usage: sbatch docker/slurm_study.sh STUDY.toml OUT_DIR}
