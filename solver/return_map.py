@@ -47,6 +47,16 @@ SQ2 = np.sqrt(2.0)
 SQ32 = np.sqrt(1.5)
 
 
+def point_arrays(sigma_n, deps) -> tuple[np.ndarray, np.ndarray]:
+    """``(sigma_n, deps)`` as float arrays of shape (points, components), checked alike."""
+    sigma_n = np.atleast_2d(np.asarray(sigma_n, dtype=float))
+    deps = np.atleast_2d(np.asarray(deps, dtype=float))
+    _check_ncomp(deps.shape[1])
+    if sigma_n.shape != deps.shape:
+        raise ValueError(f"sigma_n {sigma_n.shape} and deps {deps.shape} differ in shape")
+    return sigma_n, deps
+
+
 def _check_ncomp(ncomp: int) -> None:
     if ncomp not in (4, 6):
         raise ValueError(f"Mandel vectors have 4 (plane strain) or 6 (3D) components, got {ncomp}")
@@ -136,12 +146,8 @@ def return_map(material, sigma_n: np.ndarray, deps: np.ndarray, tangent: bool = 
     """
     if hasattr(material, "return_map"):
         return material.return_map(sigma_n, deps, tangent=tangent, rtol=rtol)
-    sigma_n = np.atleast_2d(np.asarray(sigma_n, dtype=float))
-    deps = np.atleast_2d(np.asarray(deps, dtype=float))
+    sigma_n, deps = point_arrays(sigma_n, deps)
     n, ncomp = deps.shape
-    _check_ncomp(ncomp)
-    if sigma_n.shape != deps.shape:
-        raise ValueError(f"sigma_n {sigma_n.shape} and deps {deps.shape} differ in shape")
     G, K = material.shear_modulus, material.bulk_modulus
     lam = K - 2.0 * G / 3.0
     tphi, tpsi, c = material.tan_phi, material.tan_psi, material.cohesion

@@ -32,7 +32,6 @@ import dataclasses
 import math
 import pathlib
 import time
-import traceback
 from dataclasses import dataclass
 from typing import Callable
 
@@ -644,8 +643,8 @@ def run_rolling(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_
     ``block``: keywords of :func:`rolling_mesh` (length/half_width/depth in d).  A signal
     (SIGINT/SIGTERM/SIGUSR1) stops the run after the current step with ``status = "interrupted"``.
     """
-    from .run import _atomic_write, _history_csv, _wheel, finish_run, layer_material, regularised_layers
-    from .stepping import RunInterrupted, stop_on_signals
+    from .run import (_atomic_write, _history_csv, _wheel, finish_run, history_row, layer_material,
+                      regularised_layers, run_protected)
 
     protocol = scene.loading.protocol
     if protocol not in ("rolling-continuous", "rolling-constant-load"):
@@ -677,65 +676,48 @@ def run_rolling(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_
     bar = TravelProgress(travel, d, enabled=progress and root)
 
     def on_step(st: RollingStep):
-        row = {"step": st.step, "sinkage_m": st.sinkage, "s_over_d": st.sinkage / d, "QV_N": st.QV, "QH_N": st.QH,
-               "travel_m": st.travel, "moment_Nm": st.moment, "contact_area_m2": st.contact_area,
-               "max_penetration_m": st.max_penetration, "newton_iterations": st.iterations, "cuts": st.cuts,
-               "plastic_points": st.plastic, "wall_time_s": time.perf_counter() - t_start}
-        rows.append(row)
+        rows.append(history_row(st, d, st.travel, t_start))
         if writer is not None:
             writer.write(float(len(rows)))
         if root:
             _atomic_write(out / "history.csv", _history_csv(rows))
         bar.update(st)
 
-    status, reason, diagnostics = "ok", "", {}
     steady = None
     lifted = False
+    rolling_contact_length = 0.0
     x_soft = stiff_length * d if stiff_length else None
-    try:
-        with stop_on_signals():
-            if progress and root:
-                what = (f"Q_V = {scene.loading.load / 1e3:g} kN" if constant_load
-                        else f"s -> {scene.loading.max_sinkage:g} m")
-                log.info("%s: %s wheel d = %g m, mu = %g, %d layer(s), %s mesh: %d cells, %d dofs, %d rank(s); "
-                         "travel %g m, %s", protocol, scene.wheel.shape, d, scene.wheel.friction, len(materials),
-                         scene.model.accuracy, tagged.stats.cells, roll.n_dofs, comm.size, travel, what)
-            roll.gravity_step()
-            if constant_load:
-                res = roll.press_to_load(scene.loading.load, 0.25 * d, on_step=on_step)
-                if res.status != "ok":
-                    status, reason = ("failed", f"pressing the wheel on the stiff start zone: {res.status}: "
-                                                f"{res.reason}")
-                else:
-                    steady = roll.roll_at_load(scene.loading.load, travel, x_soft=x_soft, on_step=on_step,
-                                               steady_rtol=steady_rtol, steady_qh_rtol=steady_qh_rtol,
-                                               min_window_elements=min_window_elements)
-                    if not steady.reached:
-                        log.warning("no steady state within the travel of %g m: the values are those of the last "
-                                    "step (a longer travel or a coarser steady tolerance may help)", travel)
-                    rolling_contact_length = roll.contact_length()
-                    roll.lift(on_step=on_step)
-                    lifted = True
-            else:
-                roll.press(min(s0, scene.loading.max_sinkage), on_step=on_step)
-                roll.roll(travel, scene.loading.max_sinkage, ramp=ramp, on_step=on_step)
-    except RunInterrupted as err:
-        status, reason = "interrupted", str(err)
-        diagnostics = {"signal": err.signal_name, "last_converged_travel_m": roll.position - roll.x_start,
-                       "last_converged_sinkage_m": roll.sinkage}
-        log.warning("run interrupted: %s", reason)
-    except SolverDivergedError as err:
-        status, reason = "failed", str(err)
-        diagnostics = {"last_converged_travel_m": roll.position - roll.x_start,
-                       "last_converged_sinkage_m": roll.sinkage, "step_cuts_total": roll.cuts}
-        log.warning("run failed: %s", reason)
-    except Exception as err:          # noqa: BLE001 - report, never hang
-        status, reason = "failed", f"{type(err).__name__}: {err}"
-        diagnostics = {"traceback": traceback.format_exc()}
-        log.error("run failed: %s", reason)
-    statuses = comm.allgather(status)
-    if "failed" in statuses and status != "failed":
-        status, reason = "failed", "failed on another rank"
+
+    def rolling():
+        nonlocal steady, lifted, rolling_contact_length
+        if progress and root:
+            what = (f"Q_V = {scene.loading.load / 1e3:g} kN" if constant_load
+                    else f"s -> {scene.loading.max_sinkage:g} m")
+            log.info("%s: %s wheel d = %g m, mu = %g, %d layer(s), %s mesh: %d cells, %d dofs, %d rank(s); "
+                     "travel %g m, %s", protocol, scene.wheel.shape, d, scene.wheel.friction, len(materials),
+                     scene.model.accuracy, tagged.stats.cells, roll.n_dofs, comm.size, travel, what)
+        roll.gravity_step()
+        if not constant_load:
+            roll.press(min(s0, scene.loading.max_sinkage), on_step=on_step)
+            roll.roll(travel, scene.loading.max_sinkage, ramp=ramp, on_step=on_step)
+            return None
+        res = roll.press_to_load(scene.loading.load, 0.25 * d, on_step=on_step)
+        if res.status != "ok":
+            return f"pressing the wheel on the stiff start zone: {res.status}: {res.reason}"
+        steady = roll.roll_at_load(scene.loading.load, travel, x_soft=x_soft, on_step=on_step,
+                                   steady_rtol=steady_rtol, steady_qh_rtol=steady_qh_rtol,
+                                   min_window_elements=min_window_elements)
+        if not steady.reached:
+            log.warning("no steady state within the travel of %g m: the values are those of the last "
+                        "step (a longer travel or a coarser steady tolerance may help)", travel)
+        rolling_contact_length = roll.contact_length()
+        roll.lift(on_step=on_step)
+        lifted = True
+        return None
+
+    status, reason, diagnostics = run_protected(
+        rolling, comm, lambda: {"last_converged_travel_m": roll.position - roll.x_start,
+                                "last_converged_sinkage_m": roll.sinkage, "step_cuts_total": roll.cuts})
 
     rut = None
     if lifted:

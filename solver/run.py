@@ -173,6 +173,46 @@ def _plot(path: pathlib.Path, rows, scene, status: str) -> None:
     _atomic_write(path, buf.getvalue(), binary=True)
 
 
+def history_row(st, d: float, travel: float, t_start: float) -> dict:
+    """The ``history.csv`` row (:data:`HISTORY_COLUMNS`) of a converged indentation or rolling step."""
+    return {"step": st.step, "sinkage_m": st.sinkage, "s_over_d": st.sinkage / d, "QV_N": st.QV, "QH_N": st.QH,
+            "travel_m": travel, "moment_Nm": st.moment, "contact_area_m2": st.contact_area,
+            "max_penetration_m": st.max_penetration, "newton_iterations": st.iterations, "cuts": st.cuts,
+            "plastic_points": st.plastic, "wall_time_s": time.perf_counter() - t_start}
+
+
+def run_protected(body, comm: MPI.Comm, state) -> tuple[str, str, dict]:
+    """Run a protocol, ``body()``, so that it never hangs or raises: ``(status, reason, diagnostics)``.
+
+    Signals stop it at a step boundary (``"interrupted"``); a solver failure or any exception gives
+    ``"failed"`` with the reason; ``body`` may also return a failure reason itself.  ``state()``
+    gives the diagnostics of the last converged state.  All ranks agree on the outcome (a
+    rank-local exception would otherwise hang the others)."""
+    from .stepping import RunInterrupted, SolverDivergedError, stop_on_signals
+    status, reason, diagnostics = "ok", "", {}
+    try:
+        with stop_on_signals():
+            why = body()
+        if why:
+            status, reason = "failed", why
+    except RunInterrupted as err:
+        status, reason = "interrupted", str(err)
+        diagnostics = {"signal": err.signal_name, **state()}
+        log.warning("run interrupted: %s", reason)
+    except SolverDivergedError as err:
+        status, reason = "failed", str(err)
+        hist = getattr(err, "history", None) or []
+        diagnostics = {**state(), "last_step_residual_norms": list(hist[-1].residual_norms) if hist else []}
+        log.warning("run failed: %s", reason)
+    except Exception as err:          # noqa: BLE001 - report, never hang
+        status, reason = "failed", f"{type(err).__name__}: {err}"
+        diagnostics = {"traceback": traceback.format_exc()}
+        log.error("run failed: %s", reason)
+    if "failed" in comm.allgather(status) and status != "failed":
+        status, reason = "failed", "failed on another rank"
+    return status, reason, diagnostics
+
+
 def run_scene(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_options: dict | None = None,
               write_fields: bool = True, penalty: float | None = None) -> dict:
     """Run ``scene`` on ``comm`` and write the run directory ``out_dir``; returns the summary dict.
@@ -182,7 +222,6 @@ def run_scene(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_op
     ``status = "failed"`` and ``reason``, and the last converged state is written.
     """
     from .indentation import WheelIndentation
-    from .stepping import RunInterrupted, SolverDivergedError, stop_on_signals
 
     if scene.loading.protocol.startswith("rolling"):
         from .rolling import run_rolling
@@ -213,11 +252,7 @@ def run_scene(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_op
     rows: list[dict] = []
 
     def on_step(st):
-        row = {"step": st.step, "sinkage_m": st.sinkage, "s_over_d": st.sinkage / d, "QV_N": st.QV, "QH_N": st.QH,
-               "travel_m": 0.0, "moment_Nm": st.moment, "contact_area_m2": st.contact_area,
-               "max_penetration_m": st.max_penetration, "newton_iterations": st.iterations, "cuts": st.cuts,
-               "plastic_points": st.plastic, "wall_time_s": time.perf_counter() - t_start}
-        rows.append(row)
+        rows.append(history_row(st, d, 0.0, t_start))
         if writer is not None:
             writer.write(st.sinkage)
         if root:
@@ -226,36 +261,17 @@ def run_scene(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_op
                 log.info("step %3d  s = %.5f m (s/d = %.4f)  Q_V = %10.2f kN  Newton its %d", st.step, st.sinkage,
                          st.sinkage / d, st.QV / 1e3, st.iterations)
 
-    status, reason, diagnostics = "ok", "", {}
-    try:
-        with stop_on_signals():
-            if progress and root:
-                log.info("indentation: %s wheel d = %g m, %d layer(s), %s mesh: %d cells, %d dofs, %d rank(s)",
-                         scene.wheel.shape, d, len(materials), scene.model.accuracy, tagged.stats.cells, ind.n_dofs,
-                         comm.size)
-            ind.gravity_step()
-            stops = [r * d for r in REPORT_S_OVER_D if r * d < s_max]
-            ind.push(s_max, stops=stops, on_step=on_step)
-    except RunInterrupted as err:
-        status, reason = "interrupted", str(err)
-        diagnostics = {"signal": err.signal_name, "last_converged_sinkage_m": ind.sinkage}
-        log.warning("run interrupted: %s", reason)
-    except SolverDivergedError as err:
-        status, reason = "failed", str(err)
-        hist = getattr(err, "history", None) or []
-        last = hist[-1] if hist else None
-        diagnostics = {"last_converged_sinkage_m": ind.sinkage,
-                       "last_step_residual_norms": list(last.residual_norms) if last else [],
-                       "step_cuts_total": ind.cuts}
-        log.warning("run failed: %s", reason)
-    except Exception as err:          # noqa: BLE001 - report, never hang, then re-raise below
-        status, reason = "failed", f"{type(err).__name__}: {err}"
-        diagnostics = {"traceback": traceback.format_exc()}
-        log.error("run failed: %s", reason)
-    # sync the status: every rank must agree (a rank-local exception would otherwise hang others)
-    statuses = comm.allgather(status)
-    if "failed" in statuses and status != "failed":
-        status, reason = "failed", "failed on another rank"
+    def indentation():
+        if progress and root:
+            log.info("indentation: %s wheel d = %g m, %d layer(s), %s mesh: %d cells, %d dofs, %d rank(s)",
+                     scene.wheel.shape, d, len(materials), scene.model.accuracy, tagged.stats.cells, ind.n_dofs,
+                     comm.size)
+        ind.gravity_step()
+        stops = [r * d for r in REPORT_S_OVER_D if r * d < s_max]
+        ind.push(s_max, stops=stops, on_step=on_step)
+
+    status, reason, diagnostics = run_protected(
+        indentation, comm, lambda: {"last_converged_sinkage_m": ind.sinkage, "step_cuts_total": ind.cuts})
     if writer is not None:
         try:
             writer.write_deformed()

@@ -243,14 +243,10 @@ def _hessian(sig, sphi, a2, theta_T, h=1e-20):
 # ---------------------------------------------------------------------------- return map
 def smoothed_mc_return_map(mat: SmoothedMohrCoulomb, sigma_n, deps, tangent=True, rtol=1e-10,
                            max_iterations=40):
-    from .return_map import ELASTIC, PLASTIC, APEX, ReturnResult, elastic_stiffness, _check_ncomp
+    from .return_map import ELASTIC, PLASTIC, APEX, ReturnResult, elastic_stiffness, point_arrays
 
-    sigma_n = np.atleast_2d(np.asarray(sigma_n, dtype=float))
-    deps = np.atleast_2d(np.asarray(deps, dtype=float))
+    sigma_n, deps = point_arrays(sigma_n, deps)
     npts, nc = deps.shape
-    _check_ncomp(nc)
-    if sigma_n.shape != deps.shape:
-        raise ValueError(f"sigma_n {sigma_n.shape} and deps {deps.shape} differ in shape")
     D = elastic_stiffness(mat, nc)
     sig_tr = sigma_n + deps @ D.T
     sphi, spsi = math.sin(mat.phi), math.sin(mat.dilation)
