@@ -20,11 +20,12 @@ points, wall time, and the message on failure.
 from __future__ import annotations
 
 import argparse
-import json
 import math
 import time
 
 from mpi4py import MPI
+
+from _bench import dump_json
 
 from rollsim.geometry import CylinderWheel, MeshOptions, build_soil_block, indentation_block
 from rollsim.solver import DruckerPrager, SolverDivergedError, StepControl, VonMises
@@ -101,9 +102,7 @@ def main(argv=None) -> int:
             print(f"{case:15s} {r['outcome']:17s} {r['sinkage'] / D:7.4f} {r['QV'] / 1e3:9.1f} {r['plastic']:7d} "
                   f"{r['steps']:5d} {r['newton_iterations']:5d} {r['cuts']:4d} {r['time_s']:7.1f}  "
                   f"{r['message'][:160]}", flush=True)
-    if comm.rank == 0 and args.out:
-        with open(args.out, "w") as f:
-            json.dump({"args": vars(args), "ranks": comm.size, "rows": rows}, f, indent=1)
+    dump_json(comm, args.out, {"args": vars(args), "rows": rows})
     return 0
 
 

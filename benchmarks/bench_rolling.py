@@ -8,18 +8,20 @@ Report case 2 (von Mises, c_dp = 200 kPa -> c = 100 kPa, phi = 0; E = 40 MPa, nu
 gamma = 20 kN/m^3), Mn/DOT roller d = 1.524 m, b = 0.4572 m, fast preset.  The wheel is pressed to
 s0 = 0.01 d at x = 0.4 d and rolls while s is ramped linearly to s_end = 0.05 d over ``travel``
 (ramp rate (s_end - s0)/travel); ``--halve`` repeats with twice the travel (half the rate).
-Prints Q_V, Q_H at s/d = 0.03, 0.04, 0.05 (linear interpolation along the run), the
+Prints Q_V, Q_H at s/d = 0.03, 0.04, 0.05 (``--read``; linear interpolation along the run, or a
+least-squares line over s/d +- ``--window``), the
 bearing-capacity model (rolling, inclined-footing method, D = s) at the same sinkage, steps,
 Newton iterations, torque trials, cuts and wall time.
 """
 from __future__ import annotations
 
 import argparse
-import json
 import time
 
 import numpy as np
 from mpi4py import MPI
+
+from _bench import dump_json, read_at
 
 from rollsim.geometry import CylinderWheel, MeshOptions, build_soil_block, rolling_block
 from rollsim.solver import SolverDivergedError, VonMises
@@ -57,10 +59,10 @@ def run(comm, mu, travel_d, args):
            "max_rel_moment": max((abs(st.moment) / (st.QV * D) for st in rolled), default=0.0),
            "time_s": comm.allreduce(time.perf_counter() - t0, op=MPI.MAX), "at": {},
            "curve": [(st.travel, st.sinkage, st.QV, st.QH, st.moment, st.slip) for st in roll.steps]}
-    for r in READ:
+    for r in args.read:
         if s.size and s[0] <= r <= s[-1]:
-            qv = float(np.interp(r, s, [st.QV for st in rolled]))
-            qh = float(np.interp(r, s, [st.QH for st in rolled]))
+            qv = read_at(s, np.array([st.QV for st in rolled]), r, args.window)
+            qh = read_at(s, np.array([st.QH for st in rolled]), r, args.window)
             bc = wheel_forces(r * D, Wheel(D, B), Soil(C, PHI, GAMMA), Options(mode="rolling"))
             out["at"][f"{r:g}"] = {"QV_N": qv, "QH_N": qh, "BC_QV_N": float(bc.QV), "BC_QH_N": float(bc.QH),
                                    "QV_over_BC": qv / float(bc.QV)}
@@ -78,6 +80,9 @@ def main():
     ap.add_argument("--s0", type=float, default=0.01)
     ap.add_argument("--s-end", type=float, default=0.05)
     ap.add_argument("--halve", action="store_true", help="also run with half the ramp rate (2x travel)")
+    ap.add_argument("--read", type=float, nargs="+", default=list(READ), help="s/d where Q_V, Q_H are read")
+    ap.add_argument("--window", type=float, default=0.0,
+                    help="read Q_V, Q_H by a least-squares line over s/d +- window (0: interpolate)")
     ap.add_argument("--verbose", action="store_true")
     ap.add_argument("--out", default=None)
     args = ap.parse_args()
@@ -102,15 +107,13 @@ def main():
                           flush=True)
         if args.halve and comm.rank == 0:
             a, b = results[-2], results[-1]
-            for r in READ:
+            for r in args.read:
                 k = f"{r:g}"
                 if k in a["at"] and k in b["at"]:
                     print(f"   ramp halved, s/d={k}: Q_V {a['at'][k]['QV_N'] / 1e3:.2f} -> {b['at'][k]['QV_N'] / 1e3:.2f} kN "
                           f"({b['at'][k]['QV_N'] / a['at'][k]['QV_N'] - 1:+.1%}), Q_H {a['at'][k]['QH_N'] / 1e3:.2f} -> "
                           f"{b['at'][k]['QH_N'] / 1e3:.2f} kN")
-    if args.out and comm.rank == 0:
-        with open(args.out, "w") as f:
-            json.dump({"args": vars(args), "results": results}, f, indent=1)
+    dump_json(comm, args.out, {"args": vars(args), "results": results})
 
 
 if __name__ == "__main__":

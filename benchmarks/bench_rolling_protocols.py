@@ -13,7 +13,15 @@ For each friction coefficient mu:
    (``--stiff`` d), rolled until steady, lifted; steady sinkage s_cl, Q_H, rut depth, rebound.
 2. ``rolling-continuous`` on the same block without stiff zone: pressed to s0 and rolled while the
    sinkage is ramped to ``--s-end`` d over ``--travel`` d; the sinkage s_cont at which the curve
-   Q_V(s) crosses the load (linear interpolation along the run).
+   Q_V(s) crosses the load (linear interpolation along the run; ``--ramp`` d < travel holds the
+   final sinkage).
+3. With ``--hold``: the continuous protocol ramped to s_cl over ``--ramp`` d (``--s0`` from the
+   start) and held there to ``--travel`` d: the steady Q_V at s_cl (mean of the held steps after
+   0.5 d) and the sinkage at which this steady curve carries the load (Q_V slope from the ramp's
+   last half).  This removes the ramp-rate bias of step 2 (the wheel is still descending there).
+
+    mpirun -n 2 python benchmarks/bench_rolling_protocols.py --mu 0 --length 2.6 --cl-travel 1.5 \
+        --skip-continuous --hold --s0 0.002 --ramp 1.0 --travel 2.0 --cont-length 3.2
 
 Prints s_cl, s_cont and their difference (the issue's agreement criterion is 5 %), Q_H of both,
 the friction effect on the steady sinkage (mu vs the first mu), wall times, steps and trials.
@@ -21,11 +29,12 @@ the friction effect on the steady sinkage (mu vs the first mu), wall times, step
 from __future__ import annotations
 
 import argparse
-import json
 import time
 
 import numpy as np
 from mpi4py import MPI
+
+from _bench import dump_json
 
 from rollsim.geometry import CylinderWheel, MeshOptions, build_soil_block, rolling_block
 from rollsim.solver import SolverDivergedError, VonMises
@@ -34,8 +43,8 @@ from rollsim.solver.rolling import WheelRolling, _rut
 D, B, GAMMA = 1.524, 0.4572, 20e3
 
 
-def _block(comm, args, stiff):
-    blk = rolling_block(D, length=args.length, half_width=args.half_width, depth=args.depth, stiff_length=stiff)
+def _block(comm, args, stiff, length=None):
+    blk = rolling_block(D, length=length or args.length, half_width=args.half_width, depth=args.depth, stiff_length=stiff)
     return build_soil_block(comm, blk, MeshOptions.from_accuracy(D, args.accuracy))
 
 
@@ -66,22 +75,36 @@ def constant_load(comm, mu, args):
     return out
 
 
-def continuous(comm, mu, args):
+def continuous(comm, mu, args, s_hold=None):
+    """The continuous protocol; with ``s_hold`` (m) the sinkage is ramped to it over ``--ramp`` d
+    and then held to the end of ``--travel`` (steady rolling at a fixed sinkage)."""
     t0 = time.perf_counter()
     mat = VonMises(E=40e6, nu=0.35, yield_stress=args.yield_stress * 1e3)
-    roll = WheelRolling(_block(comm, args, 0.0), CylinderWheel(D, B, B / 12), mat, gamma=GAMMA, friction=mu)
+    roll = WheelRolling(_block(comm, args, 0.0, args.cont_length), CylinderWheel(D, B, B / 12), mat, gamma=GAMMA, friction=mu)
     roll.gravity_step()
-    out = {"mu": mu, "status": "ok"}
+    out = {"mu": mu, "status": "ok", "s_hold": s_hold}
+    s_end = args.s_end * D if s_hold is None else s_hold
     try:
         roll.press(args.s0 * D)
-        roll.roll(args.travel * D, args.s_end * D)
+        roll.roll(args.travel * D, s_end, ramp=args.ramp * D if args.ramp else None)
     except SolverDivergedError as err:
         out["status"] = f"failed: {err}"
     rolled = [st for st in roll.steps if st.travel > 0]
     q = np.array([st.QV for st in rolled])
     s = np.array([st.sinkage for st in rolled])
     qh = np.array([st.QH for st in rolled])
+    x = np.array([st.travel for st in rolled])
     load = args.load * 1e3
+    if s_hold is not None and args.ramp:
+        # steady Q_V at the held sinkage (after half a diameter of holding), and the sinkage where
+        # the steady curve carries the load: s_hold + (load - Q_hold) / (dQ_V/ds over the ramp's last half)
+        held = x >= (args.ramp + 0.5) * D
+        late = (x >= 0.5 * args.ramp * D) & (x < args.ramp * D)
+        if held.sum() >= 3 and late.sum() >= 3:
+            slope = float(np.polyfit(s[late], q[late], 1)[0])
+            q_hold = float(q[held].mean())
+            out.update(QV_hold=q_hold, QV_hold_std=float(q[held].std()), QH_hold=float(qh[held].mean()),
+                       slope=slope, s_steady=s_hold + (load - q_hold) / slope, hold_steps=int(held.sum()))
     above = np.nonzero(q >= load)[0]
     if len(above) and above[0] > 0:
         i = above[0]
@@ -110,15 +133,33 @@ def main(argv=None) -> int:
     p.add_argument("--s0", type=float, default=0.005)
     p.add_argument("--s-end", type=float, default=0.03)
     p.add_argument("--travel", type=float, default=1.2, help="continuous protocol travel, d")
+    p.add_argument("--ramp", type=float, help="continuous: ramp the sinkage over this travel (d), then hold it")
+    p.add_argument("--cont-length", type=float, help="block length of the continuous run, d (default --length)")
+    p.add_argument("--hold", action="store_true",
+                   help="also roll at the constant-load steady sinkage (ramped over --ramp d, then held)")
+    p.add_argument("--hold-sinkage", type=float, nargs="+",
+                   help="with --skip-constant-load: the constant-load steady sinkage (mm) of each --mu to hold")
     p.add_argument("--skip-continuous", action="store_true")
+    p.add_argument("--skip-constant-load", action="store_true")
     p.add_argument("--out")
     args = p.parse_args(argv)
     comm = MPI.COMM_WORLD
     results = []
-    for mu in args.mu:
-        cl = constant_load(comm, mu, args)
+    if args.hold_sinkage and len(args.hold_sinkage) != len(args.mu):
+        p.error("--hold-sinkage: give one sinkage per --mu value")
+    for i, mu in enumerate(args.mu):
+        if args.skip_constant_load:
+            cl = {"mu": mu, "status": "skipped", "steps": 0, "time_s": 0.0}
+            if args.hold_sinkage:        # a constant-load result of an earlier run
+                cl.update(status="given", s_cl=1e-3 * args.hold_sinkage[i])
+        else:
+            cl = constant_load(comm, mu, args)
         co = None if args.skip_continuous else continuous(comm, mu, args)
-        results.append({"constant_load": cl, "continuous": co})
+        if (args.hold or args.hold_sinkage) and cl.get("s_cl"):
+            co_hold = continuous(comm, mu, args, s_hold=cl["s_cl"])
+        else:
+            co_hold = None
+        results.append({"constant_load": cl, "continuous": co, "hold": co_hold})
         if comm.rank == 0:
             line = (f"mu = {mu:g}: constant load {cl['status']}, steady {cl.get('steady')}, s = "
                     f"{1e3 * cl.get('s_cl', float('nan')):.2f} mm, Q_H = {cl.get('QH_cl', float('nan')) / 1e3:.2f} kN, "
@@ -131,17 +172,22 @@ def main(argv=None) -> int:
                             f"continuous - 1 = {100 * (cl.get('s_cl', np.nan) / co['s_cont'] - 1):+.1f} %"
                             if co.get("s_cont") else "not reached")
                          + f", {co['steps']} steps, {co['time_s']:.0f} s")
+            if co_hold is not None:
+                line += (f"\n          hold at s_cl ({co_hold['status']}): " + (
+                    f"Q_V = {co_hold['QV_hold'] / 1e3:.2f} +- {co_hold['QV_hold_std'] / 1e3:.2f} kN (mean +- std of "
+                    f"{co_hold['hold_steps']} steps), Q_H = {co_hold['QH_hold'] / 1e3:.2f} kN; steady curve carries "
+                    f"{args.load:g} kN at s = {1e3 * co_hold['s_steady']:.2f} mm (slope {co_hold['slope'] / 1e6:.2f} "
+                    f"kN/mm); constant-load / steady - 1 = {100 * (cl['s_cl'] / co_hold['s_steady'] - 1):+.1f} %"
+                    if "QV_hold" in co_hold else "too short to read") + f", {co_hold['time_s']:.0f} s")
             print(line, flush=True)
-    if comm.rank == 0 and len(results) > 1:
+    if comm.rank == 0 and len(results) > 1 and not args.skip_constant_load:
         base = results[0]["constant_load"].get("s_cl")
         for r in results[1:]:
             s = r["constant_load"].get("s_cl")
             if base and s:
                 print(f"friction effect on the steady sinkage: mu = {r['constant_load']['mu']:g} vs "
                       f"{results[0]['constant_load']['mu']:g}: {100 * (s / base - 1):+.1f} %")
-    if comm.rank == 0 and args.out:
-        with open(args.out, "w") as f:
-            json.dump({"args": vars(args), "ranks": comm.size, "results": results}, f, indent=1)
+    dump_json(comm, args.out, {"args": vars(args), "results": results})
     return 0
 
 

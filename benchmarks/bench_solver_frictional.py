@@ -20,7 +20,6 @@ import json
 import math
 import time
 
-import numpy as np
 from mpi4py import MPI
 
 from rollsim.log import setup_logging

@@ -21,6 +21,8 @@ SOIL_MODELS = ("von-mises", "drucker-prager", "mohr-coulomb")
 MATCHES = ("compression", "extension", "plane-strain")
 PROTOCOLS = ("indentation", "rolling-continuous", "rolling-constant-load")
 ACCURACIES = ("fast", "standard", "accurate")
+#: small strain, or incremental large deformation (the solver's ``PlasticityProblem(kinematics=...)``)
+KINEMATICS = ("small-strain", "updated-lagrangian")
 TREAD_THICKNESS_RATIO = 0.046  # t_tread / d of the report's tire
 
 
@@ -74,6 +76,7 @@ class LoadingSpec:
 @dataclass(frozen=True)
 class ModelSpec:
     accuracy: str = "standard"
+    kinematics: str = "small-strain"   # or "updated-lagrangian" (incremental large deformation)
 
 
 @dataclass(frozen=True)
@@ -254,7 +257,8 @@ def parse_scene(data: dict) -> Scene:
     soil = _soil(sections["soil"])
     loading = _loading(sections["loading"], wheel)
     model_table = _Table(top.raw("model", {}), "model")
-    model = ModelSpec(accuracy=model_table.choice("accuracy", ACCURACIES, default="standard"))
+    model = ModelSpec(accuracy=model_table.choice("accuracy", ACCURACIES, default="standard"),
+                      kinematics=model_table.choice("kinematics", KINEMATICS, default="small-strain"))
     model_table.done()
     top.done()
     return Scene(wheel, soil, loading, model)

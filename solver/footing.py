@@ -127,7 +127,8 @@ class StripFooting:
     """
 
     def __init__(self, msh, material, B: float = 1.0, *, degree: int = 2, unit_weight: float = 0.0,
-                 K0: float | None = None, petsc_options: dict | None = None, interfaces=None, cell_tags=None):
+                 K0: float | None = None, petsc_options: dict | None = None, interfaces=None, cell_tags=None,
+                 kinematics: str = "small-strain"):
         self.mesh, self.B = msh, B
         comm = msh.comm
         fdim = msh.topology.dim - 1
@@ -146,7 +147,8 @@ class StripFooting:
         import ufl
         body = ufl.as_vector([0.0, -gamma]) if gamma else None
         self.problem = pb = PlasticityProblem(msh, material, degree=degree, body_force=body,
-                                              petsc_options=petsc_options, cell_tags=cell_tags)
+                                              petsc_options=petsc_options, cell_tags=cell_tags,
+                                              kinematics=kinematics)
         V = pb.V
         self.footing_facets = dmesh.locate_entities_boundary(
             msh, fdim, lambda x: (np.abs(x[1]) < tol) & (x[0] <= B / 2 + tol))

@@ -106,13 +106,14 @@ class WheelIndentation:
     ``material``: one material or ``{cell tag: material}`` (layers: tag k = layer_k); ``gamma``:
     unit weight (N/m^3; 0 = weightless); ``friction``: Coulomb mu; ``penalty``: alpha in
     kappa = alpha E/h; ``h``: element size at the contact (default measured from the mesh);
-    ``petsc_options``: passed to the SNES.
+    ``petsc_options``: passed to the SNES; ``kinematics``: ``"small-strain"`` or
+    ``"updated-lagrangian"`` (see :class:`~rollsim.solver.problem.PlasticityProblem`).
     """
 
     def __init__(self, tagged, wheel, material, *, gamma: float = 0.0, K0: float | None = None,
                  friction: float = 0.0, penalty: float | None = None, h: float | None = None,
                  petsc_options: dict | None = None, degree: int = 2, contact_ids=None,
-                 quadrature_degree: int = 6, smoothing: float = 0.0):
+                 quadrature_degree: int = 6, smoothing: float = 0.0, kinematics: str = "small-strain"):
         self.tagged = tagged
         msh = tagged.mesh
         self.comm = msh.comm
@@ -124,7 +125,8 @@ class WheelIndentation:
         body = ufl.as_vector([0.0] * (gdim - 1) + [-self.gamma]) if self.gamma else None
         self.problem = pb = PlasticityProblem(msh, material, degree=degree, body_force=body,
                                               petsc_options={**DEFAULT_PETSC_OPTIONS, **(petsc_options or {})},
-                                              cell_tags=tagged.cell_tags if isinstance(material, dict) else None)
+                                              cell_tags=tagged.cell_tags if isinstance(material, dict) else None,
+                                              kinematics=kinematics)
         V = pb.V
         fdim = msh.topology.dim - 1
         bcs = []

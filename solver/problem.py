@@ -1,4 +1,5 @@
-"""Small-strain elastoplastic boundary-value problem driven by PETSc SNES (DOLFINx 0.5).
+"""Elastoplastic boundary-value problem driven by PETSc SNES (DOLFINx 0.5): small strain, or
+incremental large deformation (updated Lagrangian, ``kinematics="updated-lagrangian"``).
 
 Pattern (generalises to 3D, contact and load control):
 
@@ -34,6 +35,7 @@ from petsc4py import PETSc
 
 from rollsim import compat
 from rollsim.log import get_logger
+from rollsim.scene import KINEMATICS
 
 from .return_map import return_map, elastic_stiffness, yield_function, ReturnResult, ELASTIC, PLASTIC, APEX
 
@@ -70,9 +72,13 @@ def _first_line(err, limit: int = 200) -> str:
     return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
-def mandel_strain(u, gdim: int):
-    """Small strain of ``u`` as a UFL Mandel vector (4 components in 2D plane strain, 6 in 3D)."""
-    e = ufl.sym(ufl.grad(u))
+def mandel_strain(u, gdim: int, F_inv=None):
+    """Small strain of ``u`` as a UFL Mandel vector (4 components in 2D plane strain, 6 in 3D).
+
+    With ``F_inv`` (inverse deformation gradient of a configuration), the gradient is taken with
+    respect to that configuration: ``sym(grad(u) F_inv)`` (updated-Lagrangian increments)."""
+    g = ufl.grad(u) if F_inv is None else ufl.dot(ufl.grad(u), F_inv)
+    e = ufl.sym(g)
     if gdim == 2:
         return ufl.as_vector([e[0, 0], e[1, 1], 0.0 * e[0, 0], _SQ2 * e[0, 1]])
     if gdim == 3:
@@ -106,12 +112,22 @@ class PlasticityProblem:
     force_rtol : Newton also converges when ``|F| <= force_rtol * |F_internal|`` (the norm of the
         unconstrained internal-force vector, i.e. of the reactions at equilibrium) - a
         units-consistent absolute floor.
+    kinematics : ``"small-strain"`` (default: strains and equilibrium on the initial configuration)
+        or ``"updated-lagrangian"``: incremental large deformation.  Each step's strain increment
+        and equilibrium are taken on the configuration of the last converged step
+        (``x_n = X + u_n``, through ``F_n = I + grad u_n`` and ``J_n = det F_n``), the Cauchy stress
+        is carried over without a rotation correction (no Jaumann term: rotations under a wheel are
+        a few degrees), and the body force is per unit of initial volume (mass is conserved).
+        The configuration is frozen within a step, so the Newton tangent stays consistent.
     """
 
     def __init__(self, mesh, material, bcs: Sequence = (), *, degree: int = 2,
                  quadrature_degree: int | None = None, body_force=None,
                  petsc_options: dict | None = None, options_prefix: str = "rollsim_plasticity_",
-                 force_rtol: float = 1e-10, cell_tags=None):
+                 force_rtol: float = 1e-10, cell_tags=None, kinematics: str = "small-strain"):
+        if kinematics not in KINEMATICS:
+            raise ValueError(f"kinematics must be one of {', '.join(KINEMATICS)}, got {kinematics!r}")
+        self.kinematics = kinematics
         self.mesh = mesh
         self.comm = mesh.comm
         # one material, or {cell tag: material} with ``cell_tags`` (e.g. soil layers): the return
@@ -151,8 +167,13 @@ class PlasticityProblem:
         self.n_cells = mesh.topology.index_map(tdim).size_local
         self.points = compat.quadrature_points(mesh, self.qdeg)
         self.n_qp = self.n_cells * self.points.shape[0]      # owned quadrature points
-        self._deps_expr = compat.expression(
-            mandel_strain(self.u, self.gdim) - mandel_strain(self.u_n, self.gdim), self.points)
+        if kinematics == "updated-lagrangian":
+            F_n = ufl.Identity(self.gdim) + ufl.grad(self.u_n)
+            F_inv, self._J_n = ufl.inv(F_n), ufl.det(F_n)
+        else:
+            F_inv, self._J_n = None, 1.0
+        self._strain = lambda w: mandel_strain(w, self.gdim, F_inv)
+        self._deps_expr = compat.expression(self._strain(self.u - self.u_n), self.points)
 
         self._groups = self._material_groups(cell_tags)      # [(material, owned qp indices)]
         self.K0 = None                                       # set by set_geostatic_stress
@@ -169,9 +190,10 @@ class PlasticityProblem:
         zero = ufl.as_vector([0.0] * self.gdim)
         self.body_force = body_force if body_force is not None else zero
         Ct = ufl.as_matrix([[self.tangent[i * nc + j] for j in range(nc)] for i in range(nc)])
-        self._F_terms = [ufl.inner(self.sigma, mandel_strain(v, self.gdim)) * self.dx
+        eps = self._strain
+        self._F_terms = [ufl.inner(self.sigma, eps(v)) * self._J_n * self.dx
                          - self.gravity_factor * ufl.inner(self.body_force, v) * self.dx]
-        self._J_terms = [ufl.inner(ufl.dot(Ct, mandel_strain(du, self.gdim)), mandel_strain(v, self.gdim)) * self.dx]
+        self._J_terms = [ufl.inner(ufl.dot(Ct, eps(du)), eps(v)) * self._J_n * self.dx]
         self._compiled = False
         self._internal_force_forms: dict = {}
 

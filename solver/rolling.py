@@ -644,7 +644,7 @@ def run_rolling(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_
     (SIGINT/SIGTERM/SIGUSR1) stops the run after the current step with ``status = "interrupted"``.
     """
     from .run import (_atomic_write, _history_csv, _wheel, finish_run, history_row, layer_material,
-                      regularised_layers, run_protected)
+                      regularised_layers, run_protected, scene_penalty)
 
     protocol = scene.loading.protocol
     if protocol not in ("rolling-continuous", "rolling-constant-load"):
@@ -667,7 +667,8 @@ def run_rolling(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_
     stiff_length = block["stiff_length"]
     tagged = rolling_mesh(scene, comm, **block)
     roll = WheelRolling(tagged, wheel, materials, gamma=scene.soil.gamma, friction=scene.wheel.friction,
-                        petsc_options=petsc_options, penalty=penalty, moment_rtol=moment_rtol)
+                        petsc_options=petsc_options, penalty=scene_penalty(scene, penalty), moment_rtol=moment_rtol,
+                        kinematics=scene.model.kinematics)
     writer = None
     if write_fields:
         from .fields import FieldWriter
@@ -765,7 +766,7 @@ def run_rolling(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_
         "max_QV_N": max((row["QV_N"] for row in rows), default=0.0),
         "model": {"symmetry": {4: "quarter", 2: "half", 1: "full"}[roll.factor], "symmetry_factor": roll.factor,
                   "accuracy": scene.model.accuracy, "displacement_degree": roll.problem.degree,
-                  "x_start_m": roll.x_start, "moment_rtol": roll.moment_rtol,
+                  "kinematics": roll.problem.kinematics, "x_start_m": roll.x_start, "moment_rtol": roll.moment_rtol,
                   "contact": {"method": "penalty", "alpha": ct.alpha, "kappa_Pa_per_m": ct.kappa, "h_m": ct.h,
                               "friction": ct.friction}},
         "files": {"history": "history.csv", "fields": ["fields/fields.xdmf", "fields/deformed.xdmf"]

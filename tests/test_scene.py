@@ -48,6 +48,8 @@ def test_si_conversion_and_defaults():
     assert scene.soil.gamma == pytest.approx(127 * 4.4482216152605 / 0.3048**3)
     assert layer.phi_dp == pytest.approx(math.radians(27.5)) and layer.c_dp == 194.6e3 and layer.dilation == 0
     assert scene.wheel.friction == 0.8 and scene.wheel.type == "rigid" and scene.model.accuracy == "standard"
+    assert scene.model.kinematics == "small-strain"
+    assert parse_scene(with_change("model.kinematics", "updated-lagrangian")).model.kinematics == "updated-lagrangian"
     assert scene.loading.max_sinkage == pytest.approx(0.1524)
     assert scene.to_dict()["soil"]["layers"][0]["phi_dp"] == pytest.approx(27.5)
 
@@ -71,6 +73,7 @@ def test_si_conversion_and_defaults():
     ("loading.protocol", "bouncing", "loading.protocol"),
     ("loading.max_sinkage", "1 m", "loading.max_sinkage"),
     ("model.accuracy", "perfect", "model.accuracy"),
+    ("model.kinematics", "total-lagrangian", "model.kinematics"),
 ])
 def test_bad_scene_one_line_exit_2(tmp_path, capsys, path, value, field):
     scene = tmp_path / "scene.toml"

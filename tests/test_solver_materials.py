@@ -315,3 +315,8 @@ def test_regularised_cohesion_and_scene_layers():
     assert "plane-strain" in text and "soil.layers[1]: compression-matched" in text
     from rollsim.solver.run import regularised_layers     # what summary.json reports
     assert regularised_layers(sc) == {f"soil.layers[{i}]": C_REG_DEFAULT for i in range(3)}
+    from rollsim.solver.run import FRICTIONAL_PENALTY, scene_penalty
+    assert scene_penalty(sc, None) == FRICTIONAL_PENALTY and scene_penalty(sc, 10.0) == 10.0
+    cohesive = parse_scene({"wheel": {"diameter": 1.0, "width": 0.3}, "soil": {"gamma": 20e3, "layers": layers[3:]},
+                            "loading": {"protocol": "indentation", "max_sinkage": 0.1}})
+    assert scene_penalty(cohesive, None) is None
