@@ -48,14 +48,32 @@ def run(comm, accuracy, mat, d, b, gamma, mu, s_end=0.1):
             "curve": [(st.sinkage, st.QV) for st in ind.steps]}
 
 
+def solve_cost(comm, presets) -> None:
+    """Quarter block per preset: cells, dofs, mesh time and one elastic solve (report case 2 soil)."""
+    for acc in presets:
+        t0 = time.perf_counter()
+        tm = build_soil_block(comm, indentation_block(1.524), MeshOptions.from_accuracy(1.524, acc))
+        t_mesh = comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
+        ind = WheelIndentation(tm, CylinderWheel(1.524, 0.4572, 0.4572 / 12), VonMises(E=40e6, nu=0.35, yield_stress=200e3))
+        t_solve = comm.allreduce(ind.problem.elastic_solve_time(repeat=1), op=MPI.MAX)
+        if comm.rank == 0:
+            print(f"{acc:9s} cells {tm.stats.cells:7d} dofs {ind.n_dofs:8d} mesh {t_mesh:6.1f} s  one elastic solve "
+                  f"(assembly + LU) {t_solve:8.2f} s", flush=True)
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--cases", type=int, nargs="*", default=[2, 5])
     ap.add_argument("--accuracy", nargs="+", default=["fast", "standard"])
     ap.add_argument("--c0", action="store_true", help="c = 0 soils (phi 35, 40, 45 deg) instead of the cases")
+    ap.add_argument("--solve-cost", action="store_true",
+                    help="only build each preset's mesh and time one elastic solve (assembly + LU), the "
+                         "unit cost of a Newton iteration")
     ap.add_argument("--out", default=None)
     args = ap.parse_args()
     comm = MPI.COMM_WORLD
+    if args.solve_cost:
+        return solve_cost(comm, args.accuracy)
     results = []
     jobs = []
     if args.c0:
