@@ -644,7 +644,7 @@ def run_rolling(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_
     (SIGINT/SIGTERM/SIGUSR1) stops the run after the current step with ``status = "interrupted"``.
     """
     from .run import (_atomic_write, _history_csv, _wheel, finish_run, history_row, layer_material,
-                      regularised_layers, run_protected, scene_penalty)
+                      model_summary, run_protected, scene_penalty)
 
     protocol = scene.loading.protocol
     if protocol not in ("rolling-continuous", "rolling-constant-load"):
@@ -743,7 +743,6 @@ def run_rolling(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_
             writer.close()
 
     wall = comm.allreduce(time.perf_counter() - t_start, op=MPI.MAX)
-    ct = roll.contact
     last = rows[-1] if rows else {}
     summary = {
         "status": status,
@@ -764,11 +763,7 @@ def run_rolling(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_
         "moment_Nm": last.get("moment_Nm", 0.0),
         "rotation_rad": roll.rotation,
         "max_QV_N": max((row["QV_N"] for row in rows), default=0.0),
-        "model": {"symmetry": {4: "quarter", 2: "half", 1: "full"}[roll.factor], "symmetry_factor": roll.factor,
-                  "accuracy": scene.model.accuracy, "displacement_degree": roll.problem.degree,
-                  "kinematics": roll.problem.kinematics, "x_start_m": roll.x_start, "moment_rtol": roll.moment_rtol,
-                  "contact": {"method": "penalty", "alpha": ct.alpha, "kappa_Pa_per_m": ct.kappa, "h_m": ct.h,
-                              "friction": ct.friction}},
+        "model": {**model_summary(scene, roll), "x_start_m": roll.x_start, "moment_rtol": roll.moment_rtol},
         "files": {"history": "history.csv", "fields": ["fields/fields.xdmf", "fields/deformed.xdmf"]
                   if write_fields else [], "plot": "force_sinkage.png"},
     }
@@ -786,8 +781,6 @@ def run_rolling(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_
         summary["files"]["travel_plot"] = "rolling.png"
     else:
         summary["model"].update(initial_sinkage_m=s0, ramp_m=travel if ramp is None else ramp)
-    if regularised_layers(scene):
-        summary["model"]["regularising_cohesion_Pa"] = regularised_layers(scene)
     if diagnostics:
         summary["diagnostics"] = diagnostics
     if root and rows:

@@ -121,11 +121,29 @@ FRICTIONAL_PENALTY = 1.0
 def scene_penalty(scene, penalty: float | None) -> float | None:
     """The contact penalty alpha for ``scene``: ``penalty`` if given, :data:`FRICTIONAL_PENALTY`
     when a layer is purely frictional (see :func:`regularised_layers`), else None (the default)."""
-    if penalty is not None or not regularised_layers(scene):
+    frictional = regularised_layers(scene)
+    if penalty is not None or not frictional:
         return penalty
     log.info("purely frictional layer(s) %s: contact penalty alpha = %g (pass penalty to override)",
-             ", ".join(regularised_layers(scene)), FRICTIONAL_PENALTY)
+             ", ".join(frictional), FRICTIONAL_PENALTY)
     return FRICTIONAL_PENALTY
+
+
+def model_summary(scene, wheel_run) -> dict:
+    """The ``model`` entry of ``summary.json`` shared by indentation and rolling runs: symmetry,
+    mesh preset, element degree, kinematics, contact and, when used, the regularising cohesion.
+    ``wheel_run``: a :class:`WheelIndentation` or :class:`WheelRolling` (``factor``, ``problem``,
+    ``contact``)."""
+    ct = wheel_run.contact
+    model = {"symmetry": {4: "quarter", 2: "half", 1: "full"}[wheel_run.factor],
+             "symmetry_factor": wheel_run.factor, "accuracy": scene.model.accuracy,
+             "displacement_degree": wheel_run.problem.degree, "kinematics": wheel_run.problem.kinematics,
+             "contact": {"method": "penalty", "alpha": ct.alpha, "kappa_Pa_per_m": ct.kappa, "h_m": ct.h,
+                         "friction": ct.friction}}
+    regularised = regularised_layers(scene)
+    if regularised:
+        model["regularising_cohesion_Pa"] = regularised
+    return model
 
 
 def scene_mesh(scene, comm: MPI.Comm):
@@ -304,7 +322,6 @@ def run_scene(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_op
         hit = [row["QV_N"] for row in rows if abs(row["s_over_d"] - r) < 1e-9]
         if hit:
             qv_at[f"{r:g}"] = hit[0]
-    ct = ind.contact
     summary = {
         "status": status,
         "reason": reason,
@@ -322,17 +339,11 @@ def run_scene(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_op
         "QH_N": rows[-1]["QH_N"] if rows else 0.0,
         "max_QV_N": max((row["QV_N"] for row in rows), default=0.0),
         "QV_at_s_over_d": qv_at,
-        "model": {"symmetry": {4: "quarter", 2: "half", 1: "full"}[ind.factor], "symmetry_factor": ind.factor,
-                  "accuracy": scene.model.accuracy, "displacement_degree": ind.problem.degree,
-                  "kinematics": ind.problem.kinematics,
-                  "contact": {"method": "penalty", "alpha": ct.alpha, "kappa_Pa_per_m": ct.kappa, "h_m": ct.h,
-                              "friction": ct.friction}},
+        "model": model_summary(scene, ind),
         "files": {"history": "history.csv", "fields": ["fields/fields.xdmf", "fields/deformed.xdmf"]
                   if write_fields else [], "plot": "force_sinkage.png",
                   "plastic_zone": "plastic_zone.png" if write_fields else None},
     }
-    if regularised_layers(scene):
-        summary["model"]["regularising_cohesion_Pa"] = regularised_layers(scene)
     if diagnostics:
         summary["diagnostics"] = diagnostics
     return finish_run(out, rows, scene, summary, comm, progress=progress)
