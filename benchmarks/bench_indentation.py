@@ -2,10 +2,15 @@
 
     python benchmarks/bench_indentation.py --cases 2 5 --accuracy fast standard [accurate] --out bench_indentation.json
     python benchmarks/bench_indentation.py --c0 --accuracy fast standard     # c = 0, phi = 35/40/45 deg
+    mpirun -n 2 python benchmarks/bench_indentation.py --cases 2 --accuracy standard accurate --s-end 0.05 \
+        --fixed-steps 4                                                       # the 3 % check of issue #4
+    mpirun -n 2 python benchmarks/bench_indentation.py --solve-cost --accuracy standard accurate \
+        --linear-solver direct iterative                                      # cost of one solve
 
 Prints Q_V at s/d = 0.02, 0.05, 0.1, the bearing-capacity model (indentation, D = s) with the
 case's compression-matched (c, phi), steps, Newton iterations, cuts and wall time, and the
-relative difference of each preset from the finest one run.
+relative difference of each preset from the finest one run.  ``--linear-solver``: the Newton
+iteration's linear solver (default "auto": MUMPS LU up to 100 000 dofs, GMRES + AMG above).
 """
 from __future__ import annotations
 
@@ -19,7 +24,7 @@ import time
 from mpi4py import MPI
 
 from rollsim.geometry import CylinderWheel, MeshOptions, build_soil_block, indentation_block
-from rollsim.solver import DruckerPrager, SolverDivergedError, VonMises
+from rollsim.solver import DruckerPrager, SolverDivergedError, StepControl, VonMises
 from rollsim.solver.indentation import WheelIndentation
 from rollsim.studies.bearing_capacity import Options, Soil, Wheel, wheel_forces
 
@@ -31,34 +36,44 @@ def case_row(n):
     return next(r for r in csv.DictReader(CASES.open()) if int(r["case"]) == n)
 
 
-def run(comm, accuracy, mat, d, b, gamma, mu, s_end=0.1):
+def run(comm, accuracy, mat, d, b, gamma, mu, s_end=0.1, linear_solver="auto", verbose=False, fixed_steps=0):
     t0 = time.perf_counter()
     tm = build_soil_block(comm, indentation_block(d), MeshOptions.from_accuracy(d, accuracy))
-    ind = WheelIndentation(tm, CylinderWheel(d, b, b / 12), mat, gamma=gamma, friction=mu)
+    ind = WheelIndentation(tm, CylinderWheel(d, b, b / 12), mat, gamma=gamma, friction=mu,
+                           linear_solver=linear_solver)
     ind.gravity_step()
     status = "ok"
     try:
-        ind.push(s_end * d, stops=[r * d for r in STOPS])
+        control = (StepControl(dt=1 / fixed_steps, dt_max=1 / fixed_steps, grow=1.0, dt_min=1e-4, max_cuts=10)
+                   if fixed_steps else None)
+        ind.push(s_end * d, stops=[r * d for r in STOPS if r <= s_end], control=control,
+                 on_step=(lambda st: print(f"  {accuracy} s/d={st.sinkage / d:.4f} QV={st.QV / 1e3:.2f} kN "
+                                           f"its={st.iterations} t={time.perf_counter() - t0:.0f} s", flush=True))
+                 if verbose and comm.rank == 0 else None)
     except SolverDivergedError as err:
         status = f"failed: {err}"
     q = {f"{r:g}": st.QV for r in STOPS for st in ind.steps if abs(st.sinkage - r * d) < 1e-9}
-    return {"accuracy": accuracy, "cells": tm.stats.cells, "dofs": ind.n_dofs, "status": status,
+    return {"accuracy": accuracy, "linear_solver": ind.problem.linear_solver, "cells": tm.stats.cells,
+            "dofs": ind.n_dofs, "status": status,
             "steps": len(ind.steps), "newton_iterations": ind.newton_iterations, "cuts": ind.cuts,
             "time_s": comm.allreduce(time.perf_counter() - t0, op=MPI.MAX), "QV": q,
             "curve": [(st.sinkage, st.QV) for st in ind.steps]}
 
 
-def solve_cost(comm, presets) -> None:
-    """Quarter block per preset: cells, dofs, mesh time and one elastic solve (report case 2 soil)."""
+def solve_cost(comm, presets, linear_solvers) -> None:
+    """Quarter block per preset: cells, dofs, mesh time and one elastic solve per linear solver
+    (assembly, LU factorisation or AMG set-up, solve; report case 2 soil)."""
     for acc in presets:
         t0 = time.perf_counter()
         tm = build_soil_block(comm, indentation_block(1.524), MeshOptions.from_accuracy(1.524, acc))
         t_mesh = comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
-        ind = WheelIndentation(tm, CylinderWheel(1.524, 0.4572, 0.4572 / 12), VonMises(E=40e6, nu=0.35, yield_stress=200e3))
-        t_solve = comm.allreduce(ind.problem.elastic_solve_time(repeat=1), op=MPI.MAX)
-        if comm.rank == 0:
-            print(f"{acc:9s} cells {tm.stats.cells:7d} dofs {ind.n_dofs:8d} mesh {t_mesh:6.1f} s  one elastic solve "
-                  f"(assembly + LU) {t_solve:8.2f} s", flush=True)
+        for kind in linear_solvers:
+            ind = WheelIndentation(tm, CylinderWheel(1.524, 0.4572, 0.4572 / 12),
+                                   VonMises(E=40e6, nu=0.35, yield_stress=200e3), linear_solver=kind)
+            t_solve = comm.allreduce(ind.problem.elastic_solve_time(repeat=1), op=MPI.MAX)
+            if comm.rank == 0:
+                print(f"{acc:9s} cells {tm.stats.cells:7d} dofs {ind.n_dofs:8d} mesh {t_mesh:6.1f} s  one elastic "
+                      f"solve ({ind.problem.linear_solver}) {t_solve:8.2f} s", flush=True)
 
 
 def main():
@@ -67,13 +82,20 @@ def main():
     ap.add_argument("--accuracy", nargs="+", default=["fast", "standard"])
     ap.add_argument("--c0", action="store_true", help="c = 0 soils (phi 35, 40, 45 deg) instead of the cases")
     ap.add_argument("--solve-cost", action="store_true",
-                    help="only build each preset's mesh and time one elastic solve (assembly + LU), the "
+                    help="only build each preset's mesh and time one elastic solve per --linear-solver, the "
                          "unit cost of a Newton iteration")
+    ap.add_argument("--linear-solver", nargs="+", default=["auto"], choices=["auto", "direct", "iterative"],
+                    help="Newton's linear solver (runs: the first one; --solve-cost: each)")
+    ap.add_argument("--s-end", type=float, default=0.1, help="push to this s/d")
+    ap.add_argument("--verbose", action="store_true", help="print every converged step")
+    ap.add_argument("--fixed-steps", type=int, default=0,
+                    help="N equal steps between the reading stops (s/d 0.01, 0.02, 0.03, 0.05, ...), the same "
+                         "path for every preset (default: automatic step size)")
     ap.add_argument("--out", default=None)
     args = ap.parse_args()
     comm = MPI.COMM_WORLD
     if args.solve_cost:
-        return solve_cost(comm, args.accuracy)
+        return solve_cost(comm, args.accuracy, args.linear_solver)
     results = []
     jobs = []
     if args.c0:
@@ -90,7 +112,8 @@ def main():
     for name, mat, d, b, gamma, mu, c, phi in jobs:
         per = []
         for acc in args.accuracy:
-            res = run(comm, acc, mat, d, b, gamma, mu)
+            res = run(comm, acc, mat, d, b, gamma, mu, args.s_end, args.linear_solver[0], args.verbose,
+                      args.fixed_steps)
             res["name"] = name
             res["bearing_capacity_QV"] = {f"{r:g}": float(wheel_forces(r * d, Wheel(d, b), Soil(c, phi, gamma),
                                                                        Options(mode="indentation")).QV) for r in STOPS}
@@ -98,7 +121,7 @@ def main():
             if comm.rank == 0:
                 qs = "  ".join(f"s/d={k}: {v / 1e3:8.2f} kN (BC {res['bearing_capacity_QV'][k] / 1e3:7.2f})"
                                for k, v in res["QV"].items() if k in ("0.02", "0.05", "0.1"))
-                print(f"{name:14s} {acc:9s} cells {res['cells']:6d} dofs {res['dofs']:7d} steps {res['steps']:3d} "
+                print(f"{name:14s} {acc:9s} {res['linear_solver']:9s} cells {res['cells']:6d} dofs {res['dofs']:7d} steps {res['steps']:3d} "
                       f"its {res['newton_iterations']:4d} cuts {res['cuts']:3d} {res['time_s']:7.1f} s {res['status'][:60]}\n   {qs}",
                       flush=True)
         finest = per[-1]

@@ -23,6 +23,9 @@ PROTOCOLS = ("indentation", "rolling-continuous", "rolling-constant-load")
 ACCURACIES = ("fast", "standard", "accurate")
 #: small strain, or incremental large deformation (the solver's ``PlasticityProblem(kinematics=...)``)
 KINEMATICS = ("small-strain", "updated-lagrangian")
+#: linear solver of the Newton iteration (the solver's ``PlasticityProblem(linear_solver=...)``):
+#: "auto" = direct LU up to 100 000 dofs, iterative (AMG-preconditioned GMRES) above
+LINEAR_SOLVERS = ("auto", "direct", "iterative")
 TREAD_THICKNESS_RATIO = 0.046  # t_tread / d of the report's tire
 
 
@@ -77,6 +80,7 @@ class LoadingSpec:
 class ModelSpec:
     accuracy: str = "standard"
     kinematics: str = "small-strain"   # or "updated-lagrangian" (incremental large deformation)
+    linear_solver: str = "auto"        # or "direct" (MUMPS LU), "iterative" (GMRES + AMG)
 
 
 @dataclass(frozen=True)
@@ -258,7 +262,8 @@ def parse_scene(data: dict) -> Scene:
     loading = _loading(sections["loading"], wheel)
     model_table = _Table(top.raw("model", {}), "model")
     model = ModelSpec(accuracy=model_table.choice("accuracy", ACCURACIES, default="standard"),
-                      kinematics=model_table.choice("kinematics", KINEMATICS, default="small-strain"))
+                      kinematics=model_table.choice("kinematics", KINEMATICS, default="small-strain"),
+                      linear_solver=model_table.choice("linear_solver", LINEAR_SOLVERS, default="auto"))
     model_table.done()
     top.done()
     return Scene(wheel, soil, loading, model)

@@ -12,8 +12,9 @@ Pattern (generalises to 3D, contact and load control):
 * residual ``F(u; v) = int sigma(u) : eps(v) - int b . v + sum(extra residual terms)``,
   Jacobian ``J = int (C_t : eps(du)) : eps(v) + sum(extra Jacobian terms)``; Mandel vectors so
   ``:`` is a dot product;
-* SNES Newton (line search selectable) with LU (MUMPS) by default; any PETSc option can be
-  passed (``petsc_options`` dict, applied under ``options_prefix``).
+* SNES Newton (line search selectable) with LU (MUMPS) up to 100 000 dofs and GMRES + AMG
+  (GAMG, rigid-body near-null space) above (``linear_solver``); any PETSc option can be passed
+  (``petsc_options`` dict, applied under ``options_prefix``).
 
 Extension points (designed, not yet used): :meth:`PlasticityProblem.add_residual_term` adds a
 UFL residual term and its Gateaux derivative (rigid-wheel penalty/Nitsche contact is such a
@@ -35,11 +36,12 @@ from petsc4py import PETSc
 
 from rollsim import compat
 from rollsim.log import get_logger
-from rollsim.scene import KINEMATICS
+from rollsim.scene import KINEMATICS, LINEAR_SOLVERS
 
 from .return_map import return_map, elastic_stiffness, yield_function, ReturnResult, ELASTIC, PLASTIC, APEX
 
-__all__ = ["NewtonReport", "PlasticityProblem", "mandel_strain", "DEFAULT_PETSC_OPTIONS", "REASON_PETSC_ERROR"]
+__all__ = ["NewtonReport", "PlasticityProblem", "mandel_strain", "DEFAULT_PETSC_OPTIONS", "ITERATIVE_SOLVER_OPTIONS",
+           "LINEAR_SOLVERS", "AUTO_ITERATIVE_DOFS", "REASON_PETSC_ERROR", "rigid_body_modes"]
 
 log = get_logger("solver")
 
@@ -53,6 +55,24 @@ DEFAULT_PETSC_OPTIONS = {
     "ksp_type": "preonly",
     "pc_type": "lu",
     "pc_factor_mat_solver_type": "mumps",
+}
+
+#: ``linear_solver="auto"`` (see :data:`rollsim.scene.LINEAR_SOLVERS`): direct (MUMPS LU,
+#: :data:`DEFAULT_PETSC_OPTIONS`) up to this many global dofs, :data:`ITERATIVE_SOLVER_OPTIONS`
+#: above, where the LU factorisation dominates the run time (accurate preset: 53 s per solve)
+AUTO_ITERATIVE_DOFS = 100_000
+
+#: GMRES (the tangent is unsymmetric with friction or non-associated flow) preconditioned by
+#: smoothed-aggregation AMG (GAMG) with the rigid-body modes as near-null space (attached by
+#: :class:`PlasticityProblem`); the tight relative tolerance keeps Newton's quadratic convergence.
+ITERATIVE_SOLVER_OPTIONS = {
+    "ksp_type": "gmres",
+    "ksp_gmres_restart": 150,
+    "ksp_rtol": 1e-10,
+    "ksp_max_it": 1500,
+    "pc_type": "gamg",
+    "pc_gamg_threshold": 0.02,
+    "pc_gamg_coarse_eq_limit": 1000,
 }
 
 _SQ2 = np.sqrt(2.0)
@@ -96,6 +116,29 @@ class NewtonReport:
     counts: dict = field(default_factory=dict)   # global elastic/plastic/apex quadrature points
 
 
+def rigid_body_modes(V) -> PETSc.NullSpace:
+    """Orthonormal rigid-body modes of the vector space ``V`` (3 in 2D, 6 in 3D) as a PETSc null
+    space: the near-null space that AMG needs to coarsen elasticity well."""
+    gdim = V.mesh.geometry.dim
+    n_own = V.dofmap.index_map.size_local
+    x = V.tabulate_dof_coordinates()[:n_own]
+    modes = [np.zeros((n_own, gdim)) for _ in range(3 if gdim == 2 else 6)]
+    for i in range(gdim):                          # translations
+        modes[i][:, i] = 1.0
+    rotations = [(0, 1)] if gdim == 2 else [(0, 1), (1, 2), (2, 0)]
+    for m, (i, j) in zip(modes[gdim:], rotations):  # rotations in the (i, j) planes
+        m[:, i], m[:, j] = -x[:, j], x[:, i]
+    vecs = []
+    for m in modes:
+        vec = PETSc.Vec().createMPI((n_own * gdim, PETSc.DECIDE), bsize=gdim, comm=V.mesh.comm)
+        vec.setArray(m.ravel())
+        for other in vecs:                         # Gram-Schmidt
+            vec.axpy(-vec.dot(other), other)
+        vec.normalize()
+        vecs.append(vec)
+    return PETSc.NullSpace().create(vectors=vecs, comm=V.mesh.comm)
+
+
 class PlasticityProblem:
     """Elastoplastic solid on ``mesh`` (2D plane strain or 3D) with a numpy return map.
 
@@ -108,7 +151,8 @@ class PlasticityProblem:
     degree : displacement degree (2 recommended)
     quadrature_degree : default ``2 * (degree - 1)`` (exact for the P2 stiffness on affine cells)
     body_force : UFL vector (N/m^3), multiplied by :attr:`gravity_factor` (a ``fem.Constant``)
-    petsc_options : dict overriding :data:`DEFAULT_PETSC_OPTIONS`
+    petsc_options : dict overriding :data:`DEFAULT_PETSC_OPTIONS` (and the linear solver's options)
+    linear_solver : one of :data:`LINEAR_SOLVERS`; the resolved choice is :attr:`linear_solver`
     force_rtol : Newton also converges when ``|F| <= force_rtol * |F_internal|`` (the norm of the
         unconstrained internal-force vector, i.e. of the reactions at equilibrium) - a
         units-consistent absolute floor.
@@ -124,9 +168,12 @@ class PlasticityProblem:
     def __init__(self, mesh, material, bcs: Sequence = (), *, degree: int = 2,
                  quadrature_degree: int | None = None, body_force=None,
                  petsc_options: dict | None = None, options_prefix: str = "rollsim_plasticity_",
-                 force_rtol: float = 1e-10, cell_tags=None, kinematics: str = "small-strain"):
+                 force_rtol: float = 1e-10, cell_tags=None, kinematics: str = "small-strain",
+                 linear_solver: str = "auto"):
         if kinematics not in KINEMATICS:
             raise ValueError(f"kinematics must be one of {', '.join(KINEMATICS)}, got {kinematics!r}")
+        if linear_solver not in LINEAR_SOLVERS:
+            raise ValueError(f"linear_solver must be one of {', '.join(LINEAR_SOLVERS)}, got {linear_solver!r}")
         self.kinematics = kinematics
         self.mesh = mesh
         self.comm = mesh.comm
@@ -198,7 +245,13 @@ class PlasticityProblem:
         self._internal_force_forms: dict = {}
 
         self.options_prefix = options_prefix
+        if linear_solver == "auto":
+            n_dofs = self.V.dofmap.index_map.size_global * self.V.dofmap.index_map_bs
+            linear_solver = "iterative" if n_dofs > AUTO_ITERATIVE_DOFS else "direct"
+        self.linear_solver = linear_solver
         self.petsc_options = dict(DEFAULT_PETSC_OPTIONS)
+        if linear_solver == "iterative":
+            self.petsc_options.update(ITERATIVE_SOLVER_OPTIONS)
         self.petsc_options.update(petsc_options or {})
         self.timings = {"residual": 0.0, "jacobian": 0.0, "return_map": 0.0, "snes": 0.0, "iterations": 0}
         self._force_scale = 0.0
@@ -384,16 +437,23 @@ class PlasticityProblem:
         self._x_last = self.u.vector.copy()
         snes = PETSc.SNES().create(self.comm)
         snes.setOptionsPrefix(self.options_prefix)
-        opts = PETSc.Options()
-        for k, val in self.petsc_options.items():
-            opts[self.options_prefix + k] = val
+        self._push_options()
         snes.setFunction(self._snes_F, self._b)
         snes.setJacobian(self._snes_J, self._A)
         snes.setConvergenceTest(self._snes_converged)
         snes.setFromOptions()
         snes.getKSP().setFromOptions()
+        if snes.getKSP().getPC().getType() == "gamg":
+            self._A.setNearNullSpace(rigid_body_modes(self.V))
         self.snes = snes
         self._compiled = True
+
+    def _push_options(self) -> None:
+        """Write this problem's options to the (process-global) PETSc options database under its
+        prefix; another problem with the same prefix may have overwritten them since."""
+        opts = PETSc.Options()
+        for k, val in self.petsc_options.items():
+            opts[self.options_prefix + k] = val
 
     def _load_x(self, x) -> None:
         x.copy(self.u.vector)
@@ -503,6 +563,7 @@ class PlasticityProblem:
             old = self.snes.getKSP()
             ksp = PETSc.KSP().create(old.getComm())
             ksp.setOptionsPrefix(old.getOptionsPrefix())
+            self._push_options()
             ksp.setFromOptions()
             self.snes.setKSP(ksp)
             old.destroy()
@@ -545,9 +606,10 @@ class PlasticityProblem:
         return float(self.comm.allreduce(val))
 
     def elastic_solve_time(self, repeat: int = 3) -> float:
-        """Wall time of one linear elastic solve (assemble the elastic stiffness, numeric LU factorisation, solve;
-        the symbolic factorisation is reused, as in Newton),
-        the reference for the cost of a plastic Newton iteration (best of ``repeat``)."""
+        """Wall time of one linear elastic solve with this problem's linear solver (assemble the
+        elastic stiffness, set up the preconditioner - numeric LU factorisation or AMG hierarchy -,
+        solve; the symbolic factorisation is reused, as in Newton), the reference for the cost of a
+        plastic Newton iteration (best of ``repeat``)."""
         self._compile()
         nc = self.ncomp
         saved = self.tangent.x.array.copy()
@@ -557,9 +619,9 @@ class PlasticityProblem:
         fpetsc.set_bc(b, self.bcs)
         y = b.duplicate()
         ksp = PETSc.KSP().create(self.comm)
-        ksp.setType("preonly")
-        ksp.getPC().setType("lu")
-        ksp.getPC().setFactorSolverType("mumps")
+        ksp.setOptionsPrefix(self.options_prefix)    # the Newton iteration's linear solver
+        self._push_options()
+        ksp.setFromOptions()
         best = np.inf
         for _ in range(repeat + 1):              # the first pass (symbolic factorisation) is warm-up
             t0 = time.perf_counter()

@@ -665,10 +665,14 @@ def run_rolling(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_
     block = dict(block or {})
     block.setdefault("stiff_length", STIFF_LENGTH if constant_load else 0.0)
     stiff_length = block["stiff_length"]
+    advice = None
+    if not constant_load:
+        rate, advice = ramp_advice(scene.loading.max_sinkage, min(s0, scene.loading.max_sinkage),
+                                   travel if ramp is None else ramp)
     tagged = rolling_mesh(scene, comm, **block)
     roll = WheelRolling(tagged, wheel, materials, gamma=scene.soil.gamma, friction=scene.wheel.friction,
                         petsc_options=petsc_options, penalty=scene_penalty(scene, penalty), moment_rtol=moment_rtol,
-                        kinematics=scene.model.kinematics)
+                        kinematics=scene.model.kinematics, linear_solver=scene.model.linear_solver)
     writer = None
     if write_fields:
         from .fields import FieldWriter
@@ -699,6 +703,8 @@ def run_rolling(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_
                      scene.model.accuracy, tagged.stats.cells, roll.n_dofs, comm.size, travel, what)
         roll.gravity_step()
         if not constant_load:
+            if advice and root:
+                log.warning(advice)
             roll.press(min(s0, scene.loading.max_sinkage), on_step=on_step)
             roll.roll(travel, scene.loading.max_sinkage, ramp=ramp, on_step=on_step)
             return None
@@ -780,7 +786,8 @@ def run_rolling(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_
             summary["files"]["rut_picture"] = "rut.png"
         summary["files"]["travel_plot"] = "rolling.png"
     else:
-        summary["model"].update(initial_sinkage_m=s0, ramp_m=travel if ramp is None else ramp)
+        summary["model"].update(initial_sinkage_m=s0, ramp_m=travel if ramp is None else ramp, ramp_rate=rate,
+                                ramp_slow_enough=advice is None)
     if diagnostics:
         summary["diagnostics"] = diagnostics
     if root and rows:
@@ -793,6 +800,22 @@ def run_rolling(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_
 
 #: stiff start zone of the constant-load protocol, x / d (report: 0.75 d, wheel starting at 0.4 d)
 STIFF_LENGTH = 0.75
+#: fastest sinkage ramp of the continuous protocol shown to be slow enough (s per unit travel,
+#: = s/d per d): halving it from 0.02 to 0.01 changed Q_V at s/d = 0.05 by +1.7 %
+#: (``benchmarks/bench_rolling.py``, README "Ramp rate of the continuous protocol")
+VERIFIED_RAMP_RATE = 0.02
+
+
+def ramp_advice(max_sinkage: float, initial_sinkage: float, ramp_length: float) -> tuple[float, str | None]:
+    """Ramp rate of a continuous run (sinkage per unit travel) and, when it is faster than
+    :data:`VERIFIED_RAMP_RATE`, a warning with the ramp length (m) that would be slow enough."""
+    rate = (max_sinkage - initial_sinkage) / ramp_length
+    if rate <= VERIFIED_RAMP_RATE * (1 + 1e-9):
+        return rate, None
+    needed = (max_sinkage - initial_sinkage) / VERIFIED_RAMP_RATE
+    return rate, (f"the sinkage ramp ({rate:.3g} s/d per d of travel) is faster than {VERIFIED_RAMP_RATE:g}, the rate "
+                  f"shown slow enough: Q_V(s) reads low while the wheel descends; ramp over >= {needed:.3g} m "
+                  f"(loading.travel) for a near-steady curve")
 #: displacement magnification of the rut picture
 RUT_PICTURE_SCALE = 5.0
 

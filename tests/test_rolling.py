@@ -15,7 +15,8 @@ from mpi4py import MPI
 from rollsim.geometry import CylinderWheel, MeshOptions, build_soil_block, rolling_block
 from rollsim.scene import parse_scene
 from rollsim.solver import VonMises
-from rollsim.solver.rolling import RollingStep, WheelRolling, detect_steady_state, run_rolling
+from rollsim.solver.rolling import (VERIFIED_RAMP_RATE, RollingStep, WheelRolling, detect_steady_state, ramp_advice,
+                                    run_rolling)
 from rollsim.solver.run import HISTORY_COLUMNS
 from rollsim.solver.stepping import StepControl
 
@@ -51,6 +52,8 @@ def test_frictionless_rolling_run_directory(comm, tmp_mpi_path):
     assert summary["sinkage_m"] == pytest.approx(0.02 * D)
     assert summary["QH_N"] > 0
     assert summary["ranks"] == comm.size and summary["newton_iterations"] > 0
+    # a test-sized ramp (0.01 d -> 0.02 d over 0.1 d) is flagged as too fast for a steady curve
+    assert summary["model"]["ramp_rate"] == pytest.approx(0.1) and summary["model"]["ramp_slow_enough"] is False
     if comm.rank == 0:
         s = json.loads((tmp_mpi_path / "summary.json").read_text())
         assert s["status"] == "ok" and s["scene"] == scene.to_dict()
@@ -227,3 +230,12 @@ def test_interrupted_run_keeps_history_and_summary(comm, tmp_mpi_path, monkeypat
         assert len(rows) == s["steps"]
     assert signal.getsignal(signal.SIGINT) is before      # handlers restored
     comm.barrier()
+
+
+def test_ramp_advice_names_a_slow_enough_travel():
+    """Rates up to the verified 0.02 s/d per d pass; a faster ramp gets the travel that would do."""
+    assert ramp_advice(0.05 * D, 0.01 * D, 2.0 * D) == (pytest.approx(0.02), None)
+    rate, advice = ramp_advice(0.05 * D, 0.005 * D, 0.5 * D)
+    assert rate == pytest.approx(0.09)
+    needed = 0.045 * D / VERIFIED_RAMP_RATE
+    assert advice is not None and "loading.travel" in advice and f"{needed:.3g} m" in advice

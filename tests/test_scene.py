@@ -50,6 +50,8 @@ def test_si_conversion_and_defaults():
     assert scene.wheel.friction == 0.8 and scene.wheel.type == "rigid" and scene.model.accuracy == "standard"
     assert scene.model.kinematics == "small-strain"
     assert parse_scene(with_change("model.kinematics", "updated-lagrangian")).model.kinematics == "updated-lagrangian"
+    assert scene.model.linear_solver == "auto"
+    assert parse_scene(with_change("model.linear_solver", "iterative")).model.linear_solver == "iterative"
     assert scene.loading.max_sinkage == pytest.approx(0.1524)
     assert scene.to_dict()["soil"]["layers"][0]["phi_dp"] == pytest.approx(27.5)
 
@@ -74,6 +76,7 @@ def test_si_conversion_and_defaults():
     ("loading.max_sinkage", "1 m", "loading.max_sinkage"),
     ("model.accuracy", "perfect", "model.accuracy"),
     ("model.kinematics", "total-lagrangian", "model.kinematics"),
+    ("model.linear_solver", "cholesky", "model.linear_solver"),
 ])
 def test_bad_scene_one_line_exit_2(tmp_path, capsys, path, value, field):
     scene = tmp_path / "scene.toml"
