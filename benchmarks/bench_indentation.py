@@ -24,6 +24,7 @@ import time
 from mpi4py import MPI
 
 from rollsim.geometry import CylinderWheel, MeshOptions, build_soil_block, indentation_block
+from rollsim.scene import LINEAR_SOLVERS
 from rollsim.solver import DruckerPrager, SolverDivergedError, StepControl, VonMises
 from rollsim.solver.indentation import WheelIndentation
 from rollsim.studies.bearing_capacity import Options, Soil, Wheel, wheel_forces
@@ -84,7 +85,7 @@ def main():
     ap.add_argument("--solve-cost", action="store_true",
                     help="only build each preset's mesh and time one elastic solve per --linear-solver, the "
                          "unit cost of a Newton iteration")
-    ap.add_argument("--linear-solver", nargs="+", default=["auto"], choices=["auto", "direct", "iterative"],
+    ap.add_argument("--linear-solver", nargs="+", default=["auto"], choices=LINEAR_SOLVERS,
                     help="Newton's linear solver (runs: the first one; --solve-cost: each)")
     ap.add_argument("--s-end", type=float, default=0.1, help="push to this s/d")
     ap.add_argument("--verbose", action="store_true", help="print every converged step")

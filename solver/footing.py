@@ -176,7 +176,7 @@ class StripFooting:
             self.K0 = pb.set_geostatic_stress(gamma, surface=0.0, K0=K0)
         n_cells = msh.topology.index_map(msh.topology.dim).size_local
         self.n_cells = comm.allreduce(n_cells)
-        self.n_dofs = V.dofmap.index_map.size_global * V.dofmap.index_map_bs
+        self.n_dofs = pb.n_dofs
 
     def pressure(self) -> float:
         """Mean footing pressure (compression positive) of the current stress state."""

@@ -145,7 +145,7 @@ class WheelIndentation:
                                          penalty=penalty, h=h, quadrature_degree=quadrature_degree, smoothing=smoothing,
                                          centre=self._centre(0.0))
         self.steps: list[IndentationStep] = []
-        self.n_dofs = V.dofmap.index_map.size_global * V.dofmap.index_map_bs
+        self.n_dofs = pb.n_dofs
         self._t_last = time.perf_counter()
 
     # ------------------------------------------------------------------ state

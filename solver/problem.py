@@ -59,7 +59,7 @@ DEFAULT_PETSC_OPTIONS = {
 
 #: ``linear_solver="auto"`` (see :data:`rollsim.scene.LINEAR_SOLVERS`): direct (MUMPS LU,
 #: :data:`DEFAULT_PETSC_OPTIONS`) up to this many global dofs, :data:`ITERATIVE_SOLVER_OPTIONS`
-#: above, where the LU factorisation dominates the run time (accurate preset: 53 s per solve)
+#: above, where the LU factorisation dominates the run time (accurate preset: 53-74 s per solve)
 AUTO_ITERATIVE_DOFS = 100_000
 
 #: GMRES (the tangent is unsymmetric with friction or non-associated flow) preconditioned by
@@ -193,6 +193,7 @@ class PlasticityProblem:
         self.degree = degree
         self.qdeg = quadrature_degree if quadrature_degree is not None else max(2 * (degree - 1), 1)
         self.V = compat.vector_space(mesh, degree)
+        self.n_dofs = self.V.dofmap.index_map.size_global * self.V.dofmap.index_map_bs   # global
         self.bcs = list(bcs)
         self.force_rtol = force_rtol
         self.divergence_factor = 1e4
@@ -246,8 +247,7 @@ class PlasticityProblem:
 
         self.options_prefix = options_prefix
         if linear_solver == "auto":
-            n_dofs = self.V.dofmap.index_map.size_global * self.V.dofmap.index_map_bs
-            linear_solver = "iterative" if n_dofs > AUTO_ITERATIVE_DOFS else "direct"
+            linear_solver = "iterative" if self.n_dofs > AUTO_ITERATIVE_DOFS else "direct"
         self.linear_solver = linear_solver
         self.petsc_options = dict(DEFAULT_PETSC_OPTIONS)
         if linear_solver == "iterative":

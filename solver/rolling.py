@@ -804,6 +804,8 @@ STIFF_LENGTH = 0.75
 #: = s/d per d): halving it from 0.02 to 0.01 changed Q_V at s/d = 0.05 by +1.7 %
 #: (``benchmarks/bench_rolling.py``, README "Ramp rate of the continuous protocol")
 VERIFIED_RAMP_RATE = 0.02
+#: displacement magnification of the rut picture
+RUT_PICTURE_SCALE = 5.0
 
 
 def ramp_advice(max_sinkage: float, initial_sinkage: float, ramp_length: float) -> tuple[float, str | None]:
@@ -816,8 +818,6 @@ def ramp_advice(max_sinkage: float, initial_sinkage: float, ramp_length: float) 
     return rate, (f"the sinkage ramp ({rate:.3g} s/d per d of travel) is faster than {VERIFIED_RAMP_RATE:g}, the rate "
                   f"shown slow enough: Q_V(s) reads low while the wheel descends; ramp over >= {needed:.3g} m "
                   f"(loading.travel) for a near-steady curve")
-#: displacement magnification of the rut picture
-RUT_PICTURE_SCALE = 5.0
 
 
 def _rut(roll: WheelRolling, steady: SteadyState | None, x_soft: float | None, contact_length: float) -> dict:
