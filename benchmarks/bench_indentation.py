@@ -7,6 +7,8 @@
     mpirun -n 2 python benchmarks/bench_indentation.py --solve-cost --accuracy standard accurate \
         --linear-solver direct iterative                                      # cost of one solve
 
+``--volumetric-strain cell-average``: B-bar (README, "Volumetric locking").
+
 Prints Q_V at s/d = 0.02, 0.05, 0.1, the bearing-capacity model (indentation, D = s) with the
 case's compression-matched (c, phi), steps, Newton iterations, cuts and wall time, and the
 relative difference of each preset from the finest one run.  ``--linear-solver``: the Newton
@@ -24,7 +26,7 @@ import time
 from mpi4py import MPI
 
 from rollsim.geometry import CylinderWheel, MeshOptions, build_soil_block, indentation_block
-from rollsim.scene import LINEAR_SOLVERS
+from rollsim.scene import DEFAULT_VOLUMETRIC_STRAIN, LINEAR_SOLVERS, VOLUMETRIC_STRAINS
 from rollsim.solver import DruckerPrager, SolverDivergedError, StepControl, VonMises
 from rollsim.solver.indentation import WheelIndentation
 from rollsim.studies.bearing_capacity import Options, Soil, Wheel, wheel_forces
@@ -37,11 +39,12 @@ def case_row(n):
     return next(r for r in csv.DictReader(CASES.open()) if int(r["case"]) == n)
 
 
-def run(comm, accuracy, mat, d, b, gamma, mu, s_end=0.1, linear_solver="auto", verbose=False, fixed_steps=0):
+def run(comm, accuracy, mat, d, b, gamma, mu, s_end=0.1, linear_solver="auto", verbose=False, fixed_steps=0,
+        volumetric_strain=DEFAULT_VOLUMETRIC_STRAIN):
     t0 = time.perf_counter()
     tm = build_soil_block(comm, indentation_block(d), MeshOptions.from_accuracy(d, accuracy))
     ind = WheelIndentation(tm, CylinderWheel(d, b, b / 12), mat, gamma=gamma, friction=mu,
-                           linear_solver=linear_solver)
+                           linear_solver=linear_solver, volumetric_strain=volumetric_strain)
     ind.gravity_step()
     status = "ok"
     try:
@@ -54,7 +57,8 @@ def run(comm, accuracy, mat, d, b, gamma, mu, s_end=0.1, linear_solver="auto", v
     except SolverDivergedError as err:
         status = f"failed: {err}"
     q = {f"{r:g}": st.QV for r in STOPS for st in ind.steps if abs(st.sinkage - r * d) < 1e-9}
-    return {"accuracy": accuracy, "linear_solver": ind.problem.linear_solver, "cells": tm.stats.cells,
+    return {"accuracy": accuracy, "linear_solver": ind.problem.linear_solver,
+            "volumetric_strain": volumetric_strain, "cells": tm.stats.cells,
             "dofs": ind.n_dofs, "status": status,
             "steps": len(ind.steps), "newton_iterations": ind.newton_iterations, "cuts": ind.cuts,
             "time_s": comm.allreduce(time.perf_counter() - t0, op=MPI.MAX), "QV": q,
@@ -92,6 +96,8 @@ def main():
     ap.add_argument("--fixed-steps", type=int, default=0,
                     help="N equal steps between the reading stops (s/d 0.01, 0.02, 0.03, 0.05, ...), the same "
                          "path for every preset (default: automatic step size)")
+    ap.add_argument("--volumetric-strain", choices=VOLUMETRIC_STRAINS, default=DEFAULT_VOLUMETRIC_STRAIN,
+                    help="pointwise (default) or cell-average (B-bar)")
     ap.add_argument("--out", default=None)
     args = ap.parse_args()
     comm = MPI.COMM_WORLD
@@ -114,7 +120,7 @@ def main():
         per = []
         for acc in args.accuracy:
             res = run(comm, acc, mat, d, b, gamma, mu, args.s_end, args.linear_solver[0], args.verbose,
-                      args.fixed_steps)
+                      args.fixed_steps, args.volumetric_strain)
             res["name"] = name
             res["bearing_capacity_QV"] = {f"{r:g}": float(wheel_forces(r * d, Wheel(d, b), Soil(c, phi, gamma),
                                                                        Options(mode="indentation")).QV) for r in STOPS}

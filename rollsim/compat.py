@@ -83,6 +83,14 @@ def write_tagged_mesh(comm: MPI.Comm, path, mesh, cell_tags, facet_tags) -> None
         xdmf.write_meshtags(facet_tags)
 
 
+def cell_midpoints(mesh) -> fem.Function:
+    """DG0 vector Function holding each cell's midpoint (the image of the reference centroid)."""
+    V = fem.VectorFunctionSpace(mesh, ("DG", 0))
+    f = fem.Function(V, name="cell_midpoint")
+    f.interpolate(fem.Expression(ufl.SpatialCoordinate(mesh), interpolation_points(V)))
+    return f
+
+
 def interpolation_points(V) -> np.ndarray:
     """Reference interpolation points of the element of ``V`` (a method in 0.5, a property later)."""
     pts = V.element.interpolation_points

@@ -16,6 +16,7 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from rollsim.log import get_logger
+from rollsim.scene import DEFAULT_VOLUMETRIC_STRAIN
 
 from .problem import PlasticityProblem
 from .stepping import StepControl, solve_load_path
@@ -128,7 +129,7 @@ class StripFooting:
 
     def __init__(self, msh, material, B: float = 1.0, *, degree: int = 2, unit_weight: float = 0.0,
                  K0: float | None = None, petsc_options: dict | None = None, interfaces=None, cell_tags=None,
-                 kinematics: str = "small-strain"):
+                 kinematics: str = "small-strain", volumetric_strain: str = DEFAULT_VOLUMETRIC_STRAIN):
         self.mesh, self.B = msh, B
         comm = msh.comm
         fdim = msh.topology.dim - 1
@@ -148,7 +149,7 @@ class StripFooting:
         body = ufl.as_vector([0.0, -gamma]) if gamma else None
         self.problem = pb = PlasticityProblem(msh, material, degree=degree, body_force=body,
                                               petsc_options=petsc_options, cell_tags=cell_tags,
-                                              kinematics=kinematics)
+                                              kinematics=kinematics, volumetric_strain=volumetric_strain)
         V = pb.V
         self.footing_facets = dmesh.locate_entities_boundary(
             msh, fdim, lambda x: (np.abs(x[1]) < tol) & (x[0] <= B / 2 + tol))

@@ -35,6 +35,7 @@ from dolfinx import fem
 from mpi4py import MPI
 
 from rollsim.log import get_logger
+from rollsim.scene import DEFAULT_VOLUMETRIC_STRAIN
 
 from .contact import RigidWheelContact
 from .problem import PlasticityProblem
@@ -107,15 +108,16 @@ class WheelIndentation:
     unit weight (N/m^3; 0 = weightless); ``friction``: Coulomb mu; ``penalty``: alpha in
     kappa = alpha E/h; ``h``: element size at the contact (default measured from the mesh);
     ``petsc_options``: passed to the SNES; ``kinematics``: ``"small-strain"`` or
-    ``"updated-lagrangian"``; ``linear_solver``: ``"auto"``, ``"direct"`` or ``"iterative"`` (both
-    see :class:`~rollsim.solver.problem.PlasticityProblem`).
+    ``"updated-lagrangian"``; ``linear_solver``: ``"auto"``, ``"direct"`` or ``"iterative"``;
+    ``volumetric_strain``: ``"pointwise"`` or ``"cell-average"`` (B-bar) (all three see
+    :class:`~rollsim.solver.problem.PlasticityProblem`).
     """
 
     def __init__(self, tagged, wheel, material, *, gamma: float = 0.0, K0: float | None = None,
                  friction: float = 0.0, penalty: float | None = None, h: float | None = None,
                  petsc_options: dict | None = None, degree: int = 2, contact_ids=None,
                  quadrature_degree: int = 6, smoothing: float = 0.0, kinematics: str = "small-strain",
-                 linear_solver: str = "auto"):
+                 linear_solver: str = "auto", volumetric_strain: str = DEFAULT_VOLUMETRIC_STRAIN):
         self.tagged = tagged
         msh = tagged.mesh
         self.comm = msh.comm
@@ -128,7 +130,8 @@ class WheelIndentation:
         self.problem = pb = PlasticityProblem(msh, material, degree=degree, body_force=body,
                                               petsc_options={**DEFAULT_PETSC_OPTIONS, **(petsc_options or {})},
                                               cell_tags=tagged.cell_tags if isinstance(material, dict) else None,
-                                              kinematics=kinematics, linear_solver=linear_solver)
+                                              kinematics=kinematics, linear_solver=linear_solver,
+                                              volumetric_strain=volumetric_strain)
         V = pb.V
         fdim = msh.topology.dim - 1
         bcs = []

@@ -3,8 +3,9 @@ incremental large deformation (updated Lagrangian, ``kinematics="updated-lagrang
 
 Pattern (generalises to 3D, contact and load control):
 
-* unknown: displacement ``u`` (continuous Lagrange, degree 2 by default: P2 triangles/tets do
-  not lock under isochoric plastic flow the way P1 does);
+* unknown: displacement ``u`` (continuous Lagrange, degree 2 by default; P1 locks under
+  isochoric plastic flow), optionally with the B-bar (cell-average) volumetric strain, which
+  removes the milder locking of P2 tetrahedra;
 * history at quadrature points in quadrature-space Functions: converged stress ``sigma_n``,
   plastic strain ``eps_p``; the current stress ``sigma`` and consistent tangent ``tangent``
   (flattened ``ncomp x ncomp``) are refreshed from the numpy return map at every residual
@@ -36,7 +37,7 @@ from petsc4py import PETSc
 
 from rollsim import compat
 from rollsim.log import get_logger
-from rollsim.scene import KINEMATICS, LINEAR_SOLVERS
+from rollsim.scene import DEFAULT_VOLUMETRIC_STRAIN, KINEMATICS, LINEAR_SOLVERS, VOLUMETRIC_STRAINS
 
 from .return_map import return_map, elastic_stiffness, yield_function, ReturnResult, ELASTIC, PLASTIC, APEX
 
@@ -92,17 +93,27 @@ def _first_line(err, limit: int = 200) -> str:
     return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
-def mandel_strain(u, gdim: int, F_inv=None):
+def mandel_strain(u, gdim: int, F_inv=None, centroid=None):
     """Small strain of ``u`` as a UFL Mandel vector (4 components in 2D plane strain, 6 in 3D).
 
     With ``F_inv`` (inverse deformation gradient of a configuration), the gradient is taken with
-    respect to that configuration: ``sym(grad(u) F_inv)`` (updated-Lagrangian increments)."""
+    respect to that configuration: ``sym(grad(u) F_inv)`` (updated-Lagrangian increments).
+
+    With ``centroid`` (a DG0 vector Function of the cell midpoints), the volumetric part is
+    replaced by its cell average (B-bar): ``theta -> theta + grad(theta) . (x_c - x)``, exact for
+    the linear ``theta = div u`` of P2 on affine cells (first-order Taylor value otherwise), so
+    each cell carries one volumetric constraint instead of one per quadrature point."""
     g = ufl.grad(u) if F_inv is None else ufl.dot(ufl.grad(u), F_inv)
     e = ufl.sym(g)
+    vol = 0.0
+    if centroid is not None:
+        x = ufl.SpatialCoordinate(centroid.function_space.mesh)
+        vol = ufl.dot(ufl.grad(ufl.tr(g)), centroid - x) / 3.0
     if gdim == 2:
-        return ufl.as_vector([e[0, 0], e[1, 1], 0.0 * e[0, 0], _SQ2 * e[0, 1]])
+        return ufl.as_vector([e[0, 0] + vol, e[1, 1] + vol, 0.0 * e[0, 0] + vol, _SQ2 * e[0, 1]])
     if gdim == 3:
-        return ufl.as_vector([e[0, 0], e[1, 1], e[2, 2], _SQ2 * e[0, 1], _SQ2 * e[1, 2], _SQ2 * e[0, 2]])
+        return ufl.as_vector([e[0, 0] + vol, e[1, 1] + vol, e[2, 2] + vol,
+                              _SQ2 * e[0, 1], _SQ2 * e[1, 2], _SQ2 * e[0, 2]])
     raise ValueError(f"gdim must be 2 or 3, got {gdim}")
 
 
@@ -163,17 +174,27 @@ class PlasticityProblem:
         is carried over without a rotation correction (no Jaumann term: rotations under a wheel are
         a few degrees), and the body force is per unit of initial volume (mass is conserved).
         The configuration is frozen within a step, so the Newton tangent stays consistent.
+    volumetric_strain : ``"cell-average"`` (B-bar): the volumetric part of every strain
+        (trial, test and increment) is replaced by its cell average, so each cell carries one
+        incompressibility constraint instead of one per quadrature point - P2 tetrahedra lock
+        under isochoric plastic flow otherwise (README, "Volumetric locking"). Exact cell average
+        for P2 on affine cells (div u is linear there), a first-order Taylor value on curved cells
+        and in updated-Lagrangian steps. ``"pointwise"`` (default, :data:`DEFAULT_VOLUMETRIC_STRAIN`
+        until the README's figures are re-measured with B-bar): the plain strain.
     """
 
     def __init__(self, mesh, material, bcs: Sequence = (), *, degree: int = 2,
                  quadrature_degree: int | None = None, body_force=None,
                  petsc_options: dict | None = None, options_prefix: str = "rollsim_plasticity_",
                  force_rtol: float = 1e-10, cell_tags=None, kinematics: str = "small-strain",
-                 linear_solver: str = "auto"):
+                 linear_solver: str = "auto", volumetric_strain: str = DEFAULT_VOLUMETRIC_STRAIN):
         if kinematics not in KINEMATICS:
             raise ValueError(f"kinematics must be one of {', '.join(KINEMATICS)}, got {kinematics!r}")
         if linear_solver not in LINEAR_SOLVERS:
             raise ValueError(f"linear_solver must be one of {', '.join(LINEAR_SOLVERS)}, got {linear_solver!r}")
+        if volumetric_strain not in VOLUMETRIC_STRAINS:
+            raise ValueError(f"volumetric_strain must be one of {', '.join(VOLUMETRIC_STRAINS)}, "
+                             f"got {volumetric_strain!r}")
         self.kinematics = kinematics
         self.mesh = mesh
         self.comm = mesh.comm
@@ -220,7 +241,10 @@ class PlasticityProblem:
             F_inv, self._J_n = ufl.inv(F_n), ufl.det(F_n)
         else:
             F_inv, self._J_n = None, 1.0
-        self._strain = lambda w: mandel_strain(w, self.gdim, F_inv)
+        self.volumetric_strain = volumetric_strain
+        centroid = compat.cell_midpoints(mesh) if volumetric_strain == "cell-average" else None
+        self._strain = lambda w: mandel_strain(w, self.gdim, F_inv, centroid)
+        self._pointwise_strain = lambda w: mandel_strain(w, self.gdim, F_inv)
         self._deps_expr = compat.expression(self._strain(self.u - self.u_n), self.points)
 
         self._groups = self._material_groups(cell_tags)      # [(material, owned qp indices)]
@@ -239,8 +263,16 @@ class PlasticityProblem:
         self.body_force = body_force if body_force is not None else zero
         Ct = ufl.as_matrix([[self.tangent[i * nc + j] for j in range(nc)] for i in range(nc)])
         eps = self._strain
-        self._F_terms = [ufl.inner(self.sigma, eps(v)) * self._J_n * self.dx
-                         - self.gravity_factor * ufl.inner(self.body_force, v) * self.dx]
+        soil = (ufl.inner(self.sigma, eps(v)) * self._J_n * self.dx
+                - self.gravity_factor * ufl.inner(self.body_force, v) * self.dx)
+        self._sigma0 = None
+        if centroid is not None:
+            # the initial (geostatic) stress varies inside a cell, so it is in equilibrium with
+            # the body force for the pointwise strain only: B-bar acts on the stress change
+            # (residual + int sigma_0 : (eps(v) - eps_bar(v)), a constant vector)
+            self._sigma0 = fem.Function(self.Qs, name="initial_stress")
+            soil += ufl.inner(self._sigma0, self._pointwise_strain(v) - eps(v)) * self._J_n * self.dx
+        self._F_terms = [soil]       # the soil's internal minus external force (internal_force)
         self._J_terms = [ufl.inner(ufl.dot(Ct, eps(du)), eps(v)) * self._J_n * self.dx]
         self._compiled = False
         self._internal_force_forms: dict = {}
@@ -342,6 +374,8 @@ class PlasticityProblem:
         expr = compat.expression(stress_ufl, self.points)
         compat.evaluate_into(expr, self.sigma_n)
         self.sigma.x.array[:] = self.sigma_n.x.array
+        if self._sigma0 is not None:
+            self._sigma0.x.array[:] = self.sigma_n.x.array
 
     def set_geostatic_stress(self, unit_weight: float, surface: float, K0=None):
         """Geostatic initial stress for a soil with unit weight ``gamma`` (N/m^3) and free surface at

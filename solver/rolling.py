@@ -672,7 +672,8 @@ def run_rolling(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_
     tagged = rolling_mesh(scene, comm, **block)
     roll = WheelRolling(tagged, wheel, materials, gamma=scene.soil.gamma, friction=scene.wheel.friction,
                         petsc_options=petsc_options, penalty=scene_penalty(scene, penalty), moment_rtol=moment_rtol,
-                        kinematics=scene.model.kinematics, linear_solver=scene.model.linear_solver)
+                        kinematics=scene.model.kinematics, linear_solver=scene.model.linear_solver,
+                        volumetric_strain=scene.model.volumetric_strain)
     writer = None
     if write_fields:
         from .fields import FieldWriter

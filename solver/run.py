@@ -139,6 +139,7 @@ def model_summary(scene, wheel_run) -> dict:
              "symmetry_factor": wheel_run.factor, "accuracy": scene.model.accuracy,
              "displacement_degree": wheel_run.problem.degree, "kinematics": wheel_run.problem.kinematics,
              "linear_solver": wheel_run.problem.linear_solver,
+             "volumetric_strain": wheel_run.problem.volumetric_strain,
              "contact": {"method": "penalty", "alpha": ct.alpha, "kappa_Pa_per_m": ct.kappa, "h_m": ct.h,
                          "friction": ct.friction}}
     regularised = regularised_layers(scene)
@@ -279,7 +280,8 @@ def run_scene(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_op
     mats = materials if len(materials) > 1 else materials[1]
     ind = WheelIndentation(tagged, wheel, mats, gamma=scene.soil.gamma, friction=scene.wheel.friction,
                            petsc_options=petsc_options, penalty=scene_penalty(scene, penalty),
-                           kinematics=scene.model.kinematics, linear_solver=scene.model.linear_solver)
+                           kinematics=scene.model.kinematics, linear_solver=scene.model.linear_solver,
+                           volumetric_strain=scene.model.volumetric_strain)
     writer = None
     if write_fields:
         from .fields import FieldWriter

@@ -52,6 +52,8 @@ def test_si_conversion_and_defaults():
     assert parse_scene(with_change("model.kinematics", "updated-lagrangian")).model.kinematics == "updated-lagrangian"
     assert scene.model.linear_solver == "auto"
     assert parse_scene(with_change("model.linear_solver", "iterative")).model.linear_solver == "iterative"
+    assert scene.model.volumetric_strain == "pointwise"
+    assert parse_scene(with_change("model.volumetric_strain", "cell-average")).model.volumetric_strain == "cell-average"
     assert scene.loading.max_sinkage == pytest.approx(0.1524)
     assert scene.to_dict()["soil"]["layers"][0]["phi_dp"] == pytest.approx(27.5)
 
@@ -77,6 +79,7 @@ def test_si_conversion_and_defaults():
     ("model.accuracy", "perfect", "model.accuracy"),
     ("model.kinematics", "total-lagrangian", "model.kinematics"),
     ("model.linear_solver", "cholesky", "model.linear_solver"),
+    ("model.volumetric_strain", "mean", "model.volumetric_strain"),
 ])
 def test_bad_scene_one_line_exit_2(tmp_path, capsys, path, value, field):
     scene = tmp_path / "scene.toml"
