@@ -55,15 +55,19 @@ def expression(ufl_expr, points: np.ndarray):
     return fem.Expression(ufl_expr, points)
 
 
+def evaluate(expr, mesh) -> np.ndarray:
+    """Values of ``expr`` on the owned cells of ``mesh``, shape (cells, points x components)
+    (``Expression.eval`` also takes the mesh after 0.5)."""
+    n_cells = mesh.topology.index_map(mesh.topology.dim).size_local
+    return expr.eval(np.arange(n_cells, dtype=np.int32))
+
+
 def evaluate_into(expr, target: fem.Function) -> None:
     """Evaluate ``expr`` on the local cells and store it in the quadrature Function ``target``.
 
     Quadrature-space ``Function.interpolate`` does not work in 0.5.2, hence this.
     """
-    mesh = target.function_space.mesh
-    n_cells = mesh.topology.index_map(mesh.topology.dim).size_local
-    cells = np.arange(n_cells, dtype=np.int32)
-    values = expr.eval(cells)  # owned cells come first in a quadrature dofmap
+    values = evaluate(expr, target.function_space.mesh)  # owned cells come first in a quadrature dofmap
     target.x.array[:values.size] = values.reshape(-1)
     target.x.scatter_forward()
 

@@ -244,7 +244,6 @@ class PlasticityProblem:
         self.volumetric_strain = volumetric_strain
         centroid = compat.cell_midpoints(mesh) if volumetric_strain == "cell-average" else None
         self._strain = lambda w: mandel_strain(w, self.gdim, F_inv, centroid)
-        self._pointwise_strain = lambda w: mandel_strain(w, self.gdim, F_inv)
         self._deps_expr = compat.expression(self._strain(self.u - self.u_n), self.points)
 
         self._groups = self._material_groups(cell_tags)      # [(material, owned qp indices)]
@@ -271,7 +270,7 @@ class PlasticityProblem:
             # the body force for the pointwise strain only: B-bar acts on the stress change
             # (residual + int sigma_0 : (eps(v) - eps_bar(v)), a constant vector)
             self._sigma0 = fem.Function(self.Qs, name="initial_stress")
-            soil += ufl.inner(self._sigma0, self._pointwise_strain(v) - eps(v)) * self._J_n * self.dx
+            soil += ufl.inner(self._sigma0, mandel_strain(v, self.gdim, F_inv) - eps(v)) * self._J_n * self.dx
         self._F_terms = [soil]       # the soil's internal minus external force (internal_force)
         self._J_terms = [ufl.inner(ufl.dot(Ct, eps(du)), eps(v)) * self._J_n * self.dx]
         self._compiled = False

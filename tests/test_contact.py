@@ -12,6 +12,7 @@ import pytest
 import ufl
 from dolfinx import fem
 
+from rollsim import compat
 from rollsim.geometry import CylinderWheel, MeshOptions, PlaneStrainBlock, TorusWheel, build_plane_strain_block
 from rollsim.solver import PlasticityProblem, StepControl, VonMises, solve_load_path
 from rollsim.solver.contact import Circle, RigidWheelContact, ufl_signed_distance
@@ -29,11 +30,9 @@ def test_ufl_gap_equals_geometry_signed_distance(comm, wheel):
     x = ufl.SpatialCoordinate(msh)
     g, n = ufl_signed_distance(wheel, x)
     pts_ref = np.array([[0.1, 0.2, 0.3], [0.25, 0.25, 0.25], [0.6, 0.1, 0.2], [0.05, 0.7, 0.1]])
-    ncell = msh.topology.index_map(3).size_local
-    cells = np.arange(ncell, dtype=np.int32)
-    X = fem.Expression(x, pts_ref).eval(cells).reshape(-1, 3)
-    G = fem.Expression(g, pts_ref).eval(cells).reshape(-1)
-    N = fem.Expression(n, pts_ref).eval(cells).reshape(-1, 3)
+    X = compat.evaluate(compat.expression(x, pts_ref), msh).reshape(-1, 3)
+    G = compat.evaluate(compat.expression(g, pts_ref), msh).reshape(-1)
+    N = compat.evaluate(compat.expression(n, pts_ref), msh).reshape(-1, 3)
     keep = np.hypot(X[:, 0], X[:, 2]) > 1e-9        # the axle itself is a convention
     d_ref, n_ref = wheel.signed_distance(X[keep])
     assert np.abs(G[keep] - d_ref).max() < 1e-12
