@@ -7,7 +7,9 @@
     mpirun -n 2 python benchmarks/bench_indentation.py --solve-cost --accuracy standard accurate \
         --linear-solver direct iterative                                      # cost of one solve
 
-``--volumetric-strain cell-average``: B-bar (README, "Volumetric locking").
+``--volumetric-strain cell-average``: B-bar (README, "Volumetric locking").  ``--checkpoint DIR``:
+the state is written at every reading stop, and the same command started again continues from
+the last one (the accurate preset's hours-long runs over several sittings).
 
 Prints Q_V at s/d = 0.02, 0.05, 0.1, the bearing-capacity model (indentation, D = s) with the
 case's compression-matched (c, phi), steps, Newton iterations, cuts and wall time, and the
@@ -40,28 +42,44 @@ def case_row(n):
 
 
 def run(comm, accuracy, mat, d, b, gamma, mu, s_end=0.1, linear_solver="auto", verbose=False, fixed_steps=0,
-        volumetric_strain=DEFAULT_VOLUMETRIC_STRAIN):
+        volumetric_strain=DEFAULT_VOLUMETRIC_STRAIN, checkpoint=None, petsc_options=None):
+    """One push; with ``checkpoint`` (a directory) the state is written at every reading stop and a
+    run finding one there continues from it (same mesh, path and number of ranks)."""
     t0 = time.perf_counter()
     tm = build_soil_block(comm, indentation_block(d), MeshOptions.from_accuracy(d, accuracy))
     ind = WheelIndentation(tm, CylinderWheel(d, b, b / 12), mat, gamma=gamma, friction=mu,
-                           linear_solver=linear_solver, volumetric_strain=volumetric_strain)
+                           linear_solver=linear_solver, volumetric_strain=volumetric_strain,
+                           petsc_options=petsc_options)
     ind.gravity_step()
-    status = "ok"
+    status, its_before, steps_before = "ok", 0, 0
+    stops = [r * d for r in STOPS if r <= s_end]
+    if checkpoint is not None and (pathlib.Path(checkpoint) / "steps.json").exists():
+        its_before, steps_before = ind.read_checkpoint(checkpoint), len(ind.steps)
+        if comm.rank == 0:
+            print(f"  {accuracy}: continuing from {checkpoint} at s/d = {ind.sinkage / d:.4f} "
+                  f"({len(ind.steps)} steps, {its_before} Newton iterations)", flush=True)
+
+    def on_step(st):
+        if verbose and comm.rank == 0:
+            print(f"  {accuracy} s/d={st.sinkage / d:.4f} QV={st.QV / 1e3:.2f} kN "
+                  f"its={st.iterations} t={time.perf_counter() - t0:.0f} s", flush=True)
+        if checkpoint is not None and any(abs(st.sinkage - s) < 1e-9 * d for s in stops):
+            ind.write_checkpoint(checkpoint)
+
     try:
         control = (StepControl(dt=1 / fixed_steps, dt_max=1 / fixed_steps, grow=1.0, dt_min=1e-4, max_cuts=10)
                    if fixed_steps else None)
-        ind.push(s_end * d, stops=[r * d for r in STOPS if r <= s_end], control=control,
-                 on_step=(lambda st: print(f"  {accuracy} s/d={st.sinkage / d:.4f} QV={st.QV / 1e3:.2f} kN "
-                                           f"its={st.iterations} t={time.perf_counter() - t0:.0f} s", flush=True))
-                 if verbose and comm.rank == 0 else None)
+        ind.push(s_end * d, stops=[s for s in stops if s > ind.sinkage + 1e-9 * d], control=control,
+                 on_step=on_step)
     except SolverDivergedError as err:
         status = f"failed: {err}"
     q = {f"{r:g}": st.QV for r in STOPS for st in ind.steps if abs(st.sinkage - r * d) < 1e-9}
     return {"accuracy": accuracy, "linear_solver": ind.problem.linear_solver,
             "volumetric_strain": volumetric_strain, "cells": tm.stats.cells,
             "dofs": ind.n_dofs, "status": status,
-            "steps": len(ind.steps), "newton_iterations": ind.newton_iterations, "cuts": ind.cuts,
-            "time_s": comm.allreduce(time.perf_counter() - t0, op=MPI.MAX), "QV": q,
+            "steps": len(ind.steps), "newton_iterations": its_before + ind.newton_iterations, "cuts": ind.cuts,
+            "time_s": comm.allreduce(time.perf_counter() - t0, op=MPI.MAX),   # this sitting
+            "steps_from_checkpoint": steps_before, "QV": q,
             "curve": [(st.sinkage, st.QV) for st in ind.steps]}
 
 
@@ -98,8 +116,14 @@ def main():
                          "path for every preset (default: automatic step size)")
     ap.add_argument("--volumetric-strain", choices=VOLUMETRIC_STRAINS, default=DEFAULT_VOLUMETRIC_STRAIN,
                     help="pointwise (default) or cell-average (B-bar)")
+    ap.add_argument("--checkpoint", default=None,
+                    help="directory: write each run's state at every reading stop and continue a run from "
+                         "there when it is started again (long accurate runs over several sittings)")
+    ap.add_argument("--petsc-option", action="append", default=[], metavar="KEY=VALUE",
+                    help="PETSc option for the runs' SNES/KSP, e.g. ksp_rtol=1e-10 (repeatable)")
     ap.add_argument("--out", default=None)
     args = ap.parse_args()
+    petsc = dict(kv.split("=", 1) for kv in args.petsc_option)
     comm = MPI.COMM_WORLD
     if args.solve_cost:
         return solve_cost(comm, args.accuracy, args.linear_solver)
@@ -119,8 +143,11 @@ def main():
     for name, mat, d, b, gamma, mu, c, phi in jobs:
         per = []
         for acc in args.accuracy:
+            ckpt = None if args.checkpoint is None else (
+                pathlib.Path(args.checkpoint) / f"{name.replace(' ', '').replace('=', '')}-{acc}-{args.volumetric_strain}"
+                f"-fixed{args.fixed_steps}-{args.linear_solver[0]}-np{comm.size}")
             res = run(comm, acc, mat, d, b, gamma, mu, args.s_end, args.linear_solver[0], args.verbose,
-                      args.fixed_steps, args.volumetric_strain)
+                      args.fixed_steps, args.volumetric_strain, ckpt, petsc)
             res["name"] = name
             res["bearing_capacity_QV"] = {f"{r:g}": float(wheel_forces(r * d, Wheel(d, b), Soil(c, phi, gamma),
                                                                        Options(mode="indentation")).QV) for r in STOPS}

@@ -25,6 +25,9 @@ Protocols
 """
 from __future__ import annotations
 
+import json
+import os
+import pathlib
 import time
 from dataclasses import dataclass, field
 from typing import Callable
@@ -199,6 +202,50 @@ class WheelIndentation:
         ct.set_pose(centre=st["centre_n"], angle=st["angle_n"])
         del self.steps[st["n_steps"]:]
         pb.restore()
+
+    def write_checkpoint(self, path) -> None:
+        """Write the converged state to the directory ``path``: ``rank<r>.npz`` per rank, then
+        ``steps.json`` (rank 0; the steps so far and the Newton iterations), each replaced
+        atomically.  :meth:`read_checkpoint` continues from it on the same mesh and number of
+        ranks (long runs split over job time limits)."""
+        path = pathlib.Path(path)
+        if self.comm.rank == 0:
+            path.mkdir(parents=True, exist_ok=True)
+        self.comm.barrier()
+        st = self.save_state()
+        tmp = path / f"rank{self.comm.rank}.tmp.npz"
+        np.savez(tmp, **{k: np.asarray(v) for k, v in st.items()})
+        os.replace(tmp, path / f"rank{self.comm.rank}.npz")
+        self.comm.barrier()
+        if self.comm.rank == 0:
+            meta = {"ranks": self.comm.size, "n_dofs": self.n_dofs, "n_steps": len(self.steps),
+                    "newton_iterations": self.newton_iterations,
+                    "steps": [vars(s) for s in self.steps]}
+            (path / "steps.tmp.json").write_text(json.dumps(meta, indent=1))
+            os.replace(path / "steps.tmp.json", path / "steps.json")
+        self.comm.barrier()
+
+    def read_checkpoint(self, path) -> int:
+        """Continue from a :meth:`write_checkpoint` directory (call after :meth:`gravity_step`, which
+        sets the geostatic stress the state was built on).  Returns the Newton iterations of the
+        run that wrote it.  Raises ``ValueError`` naming what does not match (ranks, dofs, steps)."""
+        path = pathlib.Path(path)
+        meta = json.loads((path / "steps.json").read_text())
+        if meta["ranks"] != self.comm.size or meta["n_dofs"] != self.n_dofs:
+            raise ValueError(f"checkpoint {path}: written on {meta['ranks']} ranks with {meta['n_dofs']} dofs, "
+                             f"this run has {self.comm.size} ranks and {self.n_dofs} dofs")
+        with np.load(path / f"rank{self.comm.rank}.npz") as data:
+            st = {k: data[k] for k in data.files}
+        pb = self.problem
+        ok = (st["u_n"].size == pb.u_n.x.array.size and st["sigma_n"].size == pb.sigma_n.x.array.size
+              and int(st["n_steps"]) == meta["n_steps"])
+        if not self.comm.allreduce(int(ok), op=MPI.MIN):
+            raise ValueError(f"checkpoint {path}: the rank files do not match this partition or steps.json "
+                             "(written by another mesh, or interrupted while writing)")
+        self.steps[:] = [IndentationStep(**s) for s in meta["steps"]]
+        st["angle_n"], st["n_steps"] = float(st["angle_n"]), len(self.steps)
+        self.load_state(st)
+        return int(meta["newton_iterations"])
 
     # ------------------------------------------------------------------ protocols
     def gravity_step(self) -> None:

@@ -65,11 +65,14 @@ AUTO_ITERATIVE_DOFS = 100_000
 
 #: GMRES (the tangent is unsymmetric with friction or non-associated flow) preconditioned by
 #: smoothed-aggregation AMG (GAMG) with the rigid-body modes as near-null space (attached by
-#: :class:`PlasticityProblem`); the tight relative tolerance keeps Newton's quadratic convergence.
+#: :class:`PlasticityProblem`).  Inexact Newton: a relative tolerance of 1e-6 took the same Newton
+#: iterations and gave the same forces as 1e-10 with 25 % less time (standard preset, B-bar, report case 2,
+#: ``bench_indentation.py --linear-solver iterative --petsc-option ksp_rtol=...``); the Newton
+#: tolerance (``snes_rtol``), not this one, sets the accuracy.
 ITERATIVE_SOLVER_OPTIONS = {
     "ksp_type": "gmres",
     "ksp_gmres_restart": 150,
-    "ksp_rtol": 1e-10,
+    "ksp_rtol": 1e-6,
     "ksp_max_it": 1500,
     "pc_type": "gamg",
     "pc_gamg_threshold": 0.02,
