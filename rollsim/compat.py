@@ -12,6 +12,22 @@ from mpi4py import MPI
 
 DOLFINX_VERSION = "0.5"
 
+#: Seconds a process waits for another one that compiles the same form (DOLFINx's default: 10 s).
+#: On a fresh cache, study groups (split communicators) and parallel test workers compile the same
+#: forms at once, and under load one 3D contact form can take longer than 10 s to compile.  Bounded,
+#: so that a lock left by a killed compile still ends in DOLFINx's "clean the cache" error.
+JIT_TIMEOUT = 120
+
+
+def _raise_jit_timeout(seconds: int) -> None:
+    from dolfinx import jit
+    value, doc = jit.DOLFINX_DEFAULT_JIT_PARAMETERS["timeout"]
+    if value < seconds:
+        jit.DOLFINX_DEFAULT_JIT_PARAMETERS["timeout"] = (seconds, doc)
+
+
+_raise_jit_timeout(JIT_TIMEOUT)
+
 
 def model_to_mesh(model, comm: MPI.Comm, rank: int, gdim: int):
     """gmsh model (built on ``rank``) -> (mesh, cell_tags, facet_tags), distributed over ``comm``."""

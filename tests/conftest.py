@@ -9,6 +9,8 @@ import tempfile
 import pytest
 from mpi4py import MPI
 
+import rollsim.compat  # noqa: F401  (longer JIT lock wait: the serial suite runs in parallel workers)
+
 
 @pytest.fixture(scope="session")
 def comm() -> MPI.Comm:

@@ -4,8 +4,10 @@
 set -euo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/env.sh"
 cd "$_rollsim_root"
-echo "== serial" >&2
-python -m pytest "$@"
+# The serial run spreads the tests over ROLLSIM_TEST_WORKERS processes (pytest-xdist; 0: one process).
+workers=${ROLLSIM_TEST_WORKERS:-2}
+echo "== serial ($workers workers)" >&2
+if [ "$workers" -gt 0 ]; then python -m pytest -n "$workers" "$@"; else python -m pytest "$@"; fi
 echo "== mpirun -n 2" >&2
 # Each rank writes to its own file: Open MPI's forwarding of a busy stdout/stderr can
 # make a rank's write fail and kill it. Rank 0's log (ending in pytest's summary) is
