@@ -66,7 +66,7 @@ AUTO_ITERATIVE_DOFS = 100_000
 #: GMRES (the tangent is unsymmetric with friction or non-associated flow) preconditioned by
 #: smoothed-aggregation AMG (GAMG) with the rigid-body modes as near-null space (attached by
 #: :class:`PlasticityProblem`).  Inexact Newton: a relative tolerance of 1e-6 took the same Newton
-#: iterations and gave the same forces as 1e-10 with 25 % less time (standard preset, B-bar, report case 2,
+#: iterations (+-1) and gave the same forces as 1e-10 in about 80 % of the time (standard preset, B-bar, report case 2,
 #: ``bench_indentation.py --linear-solver iterative --petsc-option ksp_rtol=...``); the Newton
 #: tolerance (``snes_rtol``), not this one, sets the accuracy.
 ITERATIVE_SOLVER_OPTIONS = {

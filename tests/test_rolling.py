@@ -166,11 +166,14 @@ CL_BLOCK = {"length": 1.6, "half_width": 0.6, "depth": 0.6, "stiff_length": 0.5}
 @pytest.mark.serial
 def test_constant_load_rolling(tmp_mpi_path):
     """rolling-constant-load through run_rolling (fast mesh, short block, serial; the report-size
-    run and the agreement with the continuous protocol are in benchmarks/bench_rolling.py):
-    Q_V is held to load_rtol at every rolled step, the wheel leaves the stiff start zone and sinks
+    runs are in benchmarks/bench_rolling_protocols.py): Q_V is held to load_rtol at every rolled step, the wheel leaves the stiff start zone and sinks
     deeper into the clay, a steady state is detected (trend of s below steady_rtol over the
     window), and after the wheel is lifted the permanent rut is shallower than the sinkage
-    (elastic rebound > 0) but deeper than the sinkage on the stiff zone."""
+    (elastic rebound > 0) but deeper than the sinkage on the stiff zone.
+
+    The two protocols agree (the issue's criterion, 5 %): the continuous protocol, ramped to the
+    steady sinkage over 0.4 d and held there for 0.6 d, carries the load (mean Q_V over the last
+    0.3 d; +0.1 % when written, with an element ripple of about 4 %)."""
     comm = MPI.COMM_SELF
     scene = _constant_load_scene(0.0, "300 kPa", "100 kN", 0.8 * D)
     summary = run_rolling(scene, tmp_mpi_path, comm, progress=False, write_fields=False, steady_rtol=0.05,
@@ -198,6 +201,16 @@ def test_constant_load_rolling(tmp_mpi_path):
     from rollsim.studies.report import run_report
     text = run_report(tmp_mpi_path).read_text()
     assert "## Constant-load rolling" in text and "rolling.png" in text and "rut depth" in text
+
+    block = build_soil_block(comm, rolling_block(D, length=2.0, half_width=0.6, depth=0.6, stiff_length=0),
+                             MeshOptions.from_accuracy(D, "fast"))
+    roll = WheelRolling(block, CylinderWheel(D, B, B / 12), VonMises(E=40e6, nu=0.35, yield_stress=300e3),
+                        gamma=GAMMA)
+    roll.gravity_step()
+    roll.press(0.002 * D)
+    roll.roll(1.0 * D, summary["sinkage_m"], ramp=0.4 * D)
+    held = [st.QV for st in roll.steps if st.travel >= 0.7 * D]
+    assert len(held) >= 5 and np.mean(held) == pytest.approx(100e3, rel=0.05)
 
 
 def test_interrupted_run_keeps_history_and_summary(comm, tmp_mpi_path, monkeypatch):
