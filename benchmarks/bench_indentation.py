@@ -9,7 +9,7 @@
 
 ``--volumetric-strain cell-average``: B-bar (README, "Volumetric locking").  ``--checkpoint DIR``:
 the state is written at every reading stop, and the same command started again continues from
-the last one (the accurate preset's hours-long runs over several sittings).
+the last one (the accurate preset's hours-long runs over several sittings), on any number of ranks.
 
 Prints Q_V at s/d = 0.02, 0.05, 0.1, the bearing-capacity model (indentation, D = s) with the
 case's compression-matched (c, phi), steps, Newton iterations, cuts and wall time, and the
@@ -145,7 +145,7 @@ def main():
         for acc in args.accuracy:
             ckpt = None if args.checkpoint is None else (
                 pathlib.Path(args.checkpoint) / f"{name.replace(' ', '').replace('=', '')}-{acc}-{args.volumetric_strain}"
-                f"-fixed{args.fixed_steps}-{args.linear_solver[0]}-np{comm.size}")
+                f"-fixed{args.fixed_steps}-{args.linear_solver[0]}")
             res = run(comm, acc, mat, d, b, gamma, mu, args.s_end, args.linear_solver[0], args.verbose,
                       args.fixed_steps, args.volumetric_strain, ckpt, petsc)
             res["name"] = name

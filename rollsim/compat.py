@@ -56,6 +56,12 @@ def quadrature_space(mesh, degree: int, shape: tuple[int, ...] = ()):
     return fem.FunctionSpace(mesh, element)
 
 
+def quadrature_degree_of(V) -> int | None:
+    """Degree of a ``quadrature_space``; None for any other space."""
+    element = V.ufl_element()
+    return element.degree() if element.family() == "Quadrature" else None
+
+
 def quadrature_points(mesh, degree: int) -> np.ndarray:
     """Reference quadrature points of the default scheme used by ``quadrature_space``."""
     import basix

@@ -40,6 +40,7 @@ from mpi4py import MPI
 from rollsim.log import get_logger
 from rollsim.scene import DEFAULT_VOLUMETRIC_STRAIN
 
+from . import checkpoint
 from .contact import RigidWheelContact
 from .problem import PlasticityProblem
 from .stepping import RunInterrupted, SolverDivergedError, StepControl, solve_load_path
@@ -203,21 +204,29 @@ class WheelIndentation:
         del self.steps[st["n_steps"]:]
         pb.restore()
 
+    def _history_functions(self) -> dict:
+        """The Functions a checkpoint carries: displacement, stress, plastic strain, friction."""
+        pb, ct = self.problem, self.contact
+        fns = {"u_n": pb.u_n, "sigma_n": pb.sigma_n, "eps_p": pb.eps_p}
+        if ct.t_n is not None:
+            fns["t_n"] = ct.t_n
+        return fns
+
     def write_checkpoint(self, path) -> None:
-        """Write the converged state to the directory ``path``: ``rank<r>.npz`` per rank, then
-        ``steps.json`` (rank 0; the steps so far and the Newton iterations), each replaced
-        atomically.  :meth:`read_checkpoint` continues from it on the same mesh and number of
-        ranks (long runs split over job time limits)."""
+        """Write the converged state to the directory ``path``: ``state.npz`` (every value with the
+        position of its node or quadrature point, see :mod:`rollsim.solver.checkpoint`), then
+        ``steps.json`` (the steps so far and the Newton iterations), each replaced atomically by
+        rank 0.  :meth:`read_checkpoint` continues from it on the same mesh with any number of
+        ranks and any partition (long runs split over job time limits)."""
         path = pathlib.Path(path)
+        data = checkpoint.gather(self.comm, self._history_functions())
         if self.comm.rank == 0:
             path.mkdir(parents=True, exist_ok=True)
-        self.comm.barrier()
-        st = self.save_state()
-        tmp = path / f"rank{self.comm.rank}.tmp.npz"
-        np.savez(tmp, **{k: np.asarray(v) for k, v in st.items()})
-        os.replace(tmp, path / f"rank{self.comm.rank}.npz")
-        self.comm.barrier()
-        if self.comm.rank == 0:
+            ct = self.contact
+            data.update(centre_n=np.array(ct.centre_n.value), angle_n=float(ct.angle_n.value),
+                        n_steps=len(self.steps))
+            np.savez(path / "state.tmp.npz", **data)
+            os.replace(path / "state.tmp.npz", path / "state.npz")
             meta = {"ranks": self.comm.size, "n_dofs": self.n_dofs, "n_steps": len(self.steps),
                     "newton_iterations": self.newton_iterations,
                     "steps": [vars(s) for s in self.steps]}
@@ -228,22 +237,32 @@ class WheelIndentation:
     def read_checkpoint(self, path) -> int:
         """Continue from a :meth:`write_checkpoint` directory (call after :meth:`gravity_step`, which
         sets the geostatic stress the state was built on).  Returns the Newton iterations of the
-        run that wrote it.  Raises ``ValueError`` naming what does not match (ranks, dofs, steps)."""
+        run that wrote it.  Raises ``ValueError`` naming what does not match (dofs, points, steps)."""
         path = pathlib.Path(path)
         meta = json.loads((path / "steps.json").read_text())
-        if meta["ranks"] != self.comm.size or meta["n_dofs"] != self.n_dofs:
-            raise ValueError(f"checkpoint {path}: written on {meta['ranks']} ranks with {meta['n_dofs']} dofs, "
-                             f"this run has {self.comm.size} ranks and {self.n_dofs} dofs")
-        with np.load(path / f"rank{self.comm.rank}.npz") as data:
-            st = {k: data[k] for k in data.files}
-        pb = self.problem
-        ok = (st["u_n"].size == pb.u_n.x.array.size and st["sigma_n"].size == pb.sigma_n.x.array.size
-              and int(st["n_steps"]) == meta["n_steps"])
-        if not self.comm.allreduce(int(ok), op=MPI.MIN):
-            raise ValueError(f"checkpoint {path}: the rank files do not match this partition or steps.json "
-                             "(written by another mesh, or interrupted while writing)")
+        if meta["n_dofs"] != self.n_dofs:
+            raise ValueError(f"checkpoint {path}: written with {meta['n_dofs']} dofs, this run has {self.n_dofs} "
+                             "(another mesh or preset)")
+        if not (path / "state.npz").exists():
+            raise ValueError(f"checkpoint {path}: no state.npz (written by rollsim before partition-independent "
+                             "checkpoints, or interrupted while writing)")
+        with np.load(path / "state.npz") as data:
+            stored = {k: data[k] for k in data.files}
+        if int(stored["n_steps"]) != meta["n_steps"]:
+            raise ValueError(f"checkpoint {path}: state.npz holds {int(stored['n_steps'])} steps, steps.json "
+                             f"{meta['n_steps']} (interrupted while writing)")
+        st, worst = {}, 0.0
+        for name, f in self._history_functions().items():
+            if f"{name}.x" not in stored:
+                raise ValueError(f"checkpoint {path}: no {name} stored (written with another contact model)")
+            st[name], dist = checkpoint.local_values(f, stored[f"{name}.x"], stored[f"{name}.v"])
+            worst = max(worst, dist)
+        worst = self.comm.allreduce(worst, op=MPI.MAX)
+        if worst > checkpoint.MATCH_RTOL:
+            raise ValueError(f"checkpoint {path}: a point of this mesh is {worst:.2g} (relative) from the nearest "
+                             "stored point (written on another mesh)")
         self.steps[:] = [IndentationStep(**s) for s in meta["steps"]]
-        st["angle_n"], st["n_steps"] = float(st["angle_n"]), len(self.steps)
+        st.update(centre_n=stored["centre_n"], angle_n=float(stored["angle_n"]), n_steps=len(self.steps))
         self.load_state(st)
         return int(meta["newton_iterations"])
 
