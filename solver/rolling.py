@@ -643,21 +643,16 @@ def run_rolling(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_
     ``block``: keywords of :func:`rolling_mesh` (length/half_width/depth in d).  A signal
     (SIGINT/SIGTERM/SIGUSR1) stops the run after the current step with ``status = "interrupted"``.
     """
-    from .run import (_atomic_write, _history_csv, _wheel, finish_run, history_row, layer_material,
-                      model_summary, run_protected, scene_penalty)
+    from .run import (_atomic_write, _history_csv, finish_run, history_row, model_summary, run_protected,
+                      run_setup, scene_penalty)
 
     protocol = scene.loading.protocol
     if protocol not in ("rolling-continuous", "rolling-constant-load"):
         raise ValueError(f"loading.protocol: {protocol!r} is not a rolling protocol "
                          "(supported: 'rolling-continuous', 'rolling-constant-load')")
     constant_load = protocol == "rolling-constant-load"
-    wheel = _wheel(scene.wheel)
-    materials = {k: layer_material(layer, k - 1) for k, layer in enumerate(scene.soil.layers, start=1)}
-    out = pathlib.Path(out_dir)
+    wheel, materials, out = run_setup(scene, out_dir, comm)
     root = comm.rank == 0
-    if root:
-        (out / "fields").mkdir(parents=True, exist_ok=True)
-    comm.barrier()
     t_start = time.perf_counter()
     d = scene.wheel.diameter
     travel = scene.loading.travel

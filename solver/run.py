@@ -168,6 +168,18 @@ def _wheel(spec):
     return CylinderWheel(spec.diameter, spec.width, spec.fillet)
 
 
+def run_setup(scene, out_dir, comm) -> tuple:
+    """(wheel, per-layer materials {layer id: material}, output directory) of a scene run; rank 0
+    makes the directory with its ``fields/`` and every rank waits for it."""
+    wheel = _wheel(scene.wheel)
+    materials = {k: layer_material(layer, k - 1) for k, layer in enumerate(scene.soil.layers, start=1)}
+    out = pathlib.Path(out_dir)
+    if comm.rank == 0:
+        (out / "fields").mkdir(parents=True, exist_ok=True)
+    comm.barrier()
+    return wheel, materials, out
+
+
 def _atomic_write(path: pathlib.Path, data, binary: bool = False) -> None:
     tmp = path.with_name(f".{path.name}.tmp")
     with open(tmp, "wb" if binary else "w") as f:
@@ -265,13 +277,8 @@ def run_scene(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_op
     if scene.loading.protocol != "indentation":
         raise ValueError(f"loading.protocol: {scene.loading.protocol!r} is not supported by run_scene; "
                          "supported: 'indentation', 'rolling-continuous', 'rolling-constant-load'")
-    wheel = _wheel(scene.wheel)
-    materials = {k: layer_material(layer, k - 1) for k, layer in enumerate(scene.soil.layers, start=1)}
-    out = pathlib.Path(out_dir)
+    wheel, materials, out = run_setup(scene, out_dir, comm)
     root = comm.rank == 0
-    if root:
-        (out / "fields").mkdir(parents=True, exist_ok=True)
-    comm.barrier()
     t_start = time.perf_counter()
     d = scene.wheel.diameter
     s_max = scene.loading.max_sinkage
