@@ -182,13 +182,15 @@ class WheelIndentation:
 
     def save_state(self) -> dict:
         """Copy of the converged state (for load control and restarts)."""
-        pb, ct = self.problem, self.contact
-        st = {"u_n": pb.u_n.x.array.copy(), "sigma_n": pb.sigma_n.x.array.copy(),
-              "eps_p": pb.eps_p.x.array.copy(), "centre_n": np.array(ct.centre_n.value),
-              "angle_n": float(ct.angle_n.value), "n_steps": len(self.steps)}
-        if ct.t_n is not None:
-            st["t_n"] = ct.t_n.x.array.copy()
+        st = {name: f.x.array.copy() for name, f in self._history_functions().items()}
+        st.update(self._pose())
         return st
+
+    def _pose(self) -> dict:
+        """Converged wheel pose and the number of steps (the scalar part of a saved state)."""
+        ct = self.contact
+        return {"centre_n": np.array(ct.centre_n.value), "angle_n": float(ct.angle_n.value),
+                "n_steps": len(self.steps)}
 
     def load_state(self, st: dict) -> None:
         pb, ct = self.problem, self.contact
@@ -222,9 +224,7 @@ class WheelIndentation:
         data = checkpoint.gather(self.comm, self._history_functions())
         if self.comm.rank == 0:
             path.mkdir(parents=True, exist_ok=True)
-            ct = self.contact
-            data.update(centre_n=np.array(ct.centre_n.value), angle_n=float(ct.angle_n.value),
-                        n_steps=len(self.steps))
+            data.update(self._pose())
             np.savez(path / "state.tmp.npz", **data)
             os.replace(path / "state.tmp.npz", path / "state.npz")
             meta = {"ranks": self.comm.size, "n_dofs": self.n_dofs, "n_steps": len(self.steps),
