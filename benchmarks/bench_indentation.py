@@ -4,6 +4,8 @@
     python benchmarks/bench_indentation.py --c0 --accuracy fast standard     # c = 0, phi = 35/40/45 deg
     mpirun -n 2 python benchmarks/bench_indentation.py --cases 2 --accuracy standard accurate --s-end 0.05 \
         --fixed-steps 4                                                       # the 3 % check of issue #4
+    mpirun -n 2 python benchmarks/bench_indentation.py --cases 2 --accuracy standard --s-end 0.05 \
+        --step 0.000625 --volumetric-strain cell-average                      # equal steps of 0.000625 s/d
     mpirun -n 2 python benchmarks/bench_indentation.py --solve-cost --accuracy standard accurate \
         --linear-solver direct iterative                                      # cost of one solve
 
@@ -42,9 +44,10 @@ def case_row(n):
 
 
 def run(comm, accuracy, mat, d, b, gamma, mu, s_end=0.1, linear_solver="auto", verbose=False, fixed_steps=0,
-        volumetric_strain=DEFAULT_VOLUMETRIC_STRAIN, checkpoint=None, petsc_options=None):
-    """One push; with ``checkpoint`` (a directory) the state is written at every reading stop and a
-    run finding one there continues from it (same mesh, path and number of ranks)."""
+        volumetric_strain=DEFAULT_VOLUMETRIC_STRAIN, checkpoint=None, petsc_options=None, step=0.0):
+    """One push; ``step`` (s/d, > 0): every step that long (a failed step is cut inside it);
+    with ``checkpoint`` (a directory) the state is written at every reading stop and a run finding
+    one there continues from it (same mesh and path, any number of ranks)."""
     t0 = time.perf_counter()
     tm = build_soil_block(comm, indentation_block(d), MeshOptions.from_accuracy(d, accuracy))
     ind = WheelIndentation(tm, CylinderWheel(d, b, b / 12), mat, gamma=gamma, friction=mu,
@@ -67,9 +70,15 @@ def run(comm, accuracy, mat, d, b, gamma, mu, s_end=0.1, linear_solver="auto", v
             ind.write_checkpoint(checkpoint)
 
     try:
-        control = (StepControl(dt=1 / fixed_steps, dt_max=1 / fixed_steps, grow=1.0, dt_min=1e-4, max_cuts=10)
-                   if fixed_steps else None)
-        ind.push(s_end * d, stops=[s for s in stops if s > ind.sinkage + 1e-9 * d], control=control,
+        control, ends = None, stops
+        if fixed_steps:
+            control = StepControl(dt=1 / fixed_steps, dt_max=1 / fixed_steps, grow=1.0, dt_min=1e-4, max_cuts=10)
+        elif step:
+            # each step is a push segment of its own: equal steps whatever the reading stops
+            control = StepControl(dt=1.0, dt_max=1.0, grow=1.0, dt_min=1e-4, max_cuts=10)
+            grid = [k * step * d for k in range(1, int(s_end / step + 1e-9) + 1)]
+            ends = sorted(stops + [s for s in grid if all(abs(s - r) > 1e-9 * d for r in stops)])
+        ind.push(s_end * d, stops=[s for s in ends if s > ind.sinkage + 1e-9 * d], control=control,
                  on_step=on_step)
     except SolverDivergedError as err:
         status = f"failed: {err}"
@@ -114,6 +123,8 @@ def main():
     ap.add_argument("--fixed-steps", type=int, default=0,
                     help="N equal steps between the reading stops (s/d 0.01, 0.02, 0.03, 0.05, ...), the same "
                          "path for every preset (default: automatic step size)")
+    ap.add_argument("--step", type=float, default=0.0,
+                    help="equal steps of this s/d for every preset (a failed step is cut inside it)")
     ap.add_argument("--volumetric-strain", choices=VOLUMETRIC_STRAINS, default=DEFAULT_VOLUMETRIC_STRAIN,
                     help="pointwise (default) or cell-average (B-bar)")
     ap.add_argument("--checkpoint", default=None,
@@ -123,6 +134,8 @@ def main():
                     help="PETSc option for the runs' SNES/KSP, e.g. ksp_rtol=1e-10 (repeatable)")
     ap.add_argument("--out", default=None)
     args = ap.parse_args()
+    if args.step < 0 or (args.step and args.fixed_steps):
+        ap.error("--step: a positive s/d, not together with --fixed-steps")
     petsc = dict(kv.split("=", 1) for kv in args.petsc_option)
     comm = MPI.COMM_WORLD
     if args.solve_cost:
@@ -145,9 +158,9 @@ def main():
         for acc in args.accuracy:
             ckpt = None if args.checkpoint is None else (
                 pathlib.Path(args.checkpoint) / f"{name.replace(' ', '').replace('=', '')}-{acc}-{args.volumetric_strain}"
-                f"-fixed{args.fixed_steps}-{args.linear_solver[0]}")
+                f"-{f'step{args.step:g}' if args.step else f'fixed{args.fixed_steps}'}-{args.linear_solver[0]}")
             res = run(comm, acc, mat, d, b, gamma, mu, args.s_end, args.linear_solver[0], args.verbose,
-                      args.fixed_steps, args.volumetric_strain, ckpt, petsc)
+                      args.fixed_steps, args.volumetric_strain, ckpt, petsc, args.step)
             res["name"] = name
             res["bearing_capacity_QV"] = {f"{r:g}": float(wheel_forces(r * d, Wheel(d, b), Soil(c, phi, gamma),
                                                                        Options(mode="indentation")).QV) for r in STOPS}

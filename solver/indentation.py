@@ -251,12 +251,10 @@ class WheelIndentation:
         if int(stored["n_steps"]) != meta["n_steps"]:
             raise ValueError(f"checkpoint {path}: state.npz holds {int(stored['n_steps'])} steps, steps.json "
                              f"{meta['n_steps']} (interrupted while writing)")
-        st, worst = {}, 0.0
-        for name, f in self._history_functions().items():
-            if f"{name}.x" not in stored:
-                raise ValueError(f"checkpoint {path}: no {name} stored (written with another contact model)")
-            st[name], dist = checkpoint.local_values(f, stored[f"{name}.x"], stored[f"{name}.v"])
-            worst = max(worst, dist)
+        try:
+            st, worst = checkpoint.scatter(self._history_functions(), stored)
+        except KeyError as err:
+            raise ValueError(f"checkpoint {path}: no {err.args[0]} stored (written with another contact model)") from None
         worst = self.comm.allreduce(worst, op=MPI.MAX)
         if worst > checkpoint.MATCH_RTOL:
             raise ValueError(f"checkpoint {path}: a point of this mesh is {worst:.2g} (relative) from the nearest "

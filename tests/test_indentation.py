@@ -175,7 +175,8 @@ def test_partition_independent_indentation(comm):
 def test_checkpoint_continues_the_same_path(comm, tmp_mpi_path):
     """A push written to a checkpoint at s/d = 0.005 and continued by a new WheelIndentation (plastic
     von Mises soil, gravity, mu = 0.8: stresses, plastic strains and the friction history all
-    carried) gives the uninterrupted run's steps to 1e-8.  Under mpirun the 2-rank checkpoint is
+    carried) gives the uninterrupted run's steps to 1e-8; stress and plastic strain share their stored
+    quadrature points.  Under mpirun the 2-rank checkpoint is
     also continued on one rank (another partition: values are matched by position).  A different
     mesh is refused."""
     mat = VonMises(E=40e6, nu=0.35, yield_stress=100e3)
@@ -189,6 +190,8 @@ def test_checkpoint_continues_the_same_path(comm, tmp_mpi_path):
     whole = wheel(comm)
     whole.push(0.005 * D, control=control)
     whole.write_checkpoint(tmp_mpi_path / "ckpt")
+    with np.load(tmp_mpi_path / "ckpt" / "state.npz") as data:     # one set of quadrature points
+        assert "eps_p.x" not in data.files and str(data["eps_p.at"]) == "sigma_n" and "sigma_n.x" in data.files
     whole.push(0.01 * D, control=control)
     assert whole.steps[-1].plastic > 0
     for cm in [comm] + ([MPI.COMM_SELF] if comm.size > 1 else []):
