@@ -72,10 +72,8 @@ def scatter(functions: dict[str, fem.Function], stored: dict[str, np.ndarray]) -
     arrays, worst, matched = {}, 0.0, {}
     for name, f in functions.items():
         V = f.function_space
-        if f"{name}.v" not in stored:
-            raise KeyError(name)
-        key = name if f"{name}.x" in stored else str(stored.get(f"{name}.at", name))
-        if f"{key}.x" not in stored:
+        key = str(stored[f"{name}.at"]) if f"{name}.at" in stored else name     # where its points are
+        if f"{name}.v" not in stored or f"{key}.x" not in stored:
             raise KeyError(name)
         first = _first_on_space(functions, name)
         if first not in matched:

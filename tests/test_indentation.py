@@ -176,9 +176,8 @@ def test_checkpoint_continues_the_same_path(comm, tmp_mpi_path):
     """A push written to a checkpoint at s/d = 0.005 and continued by a new WheelIndentation (plastic
     von Mises soil, gravity, mu = 0.8: stresses, plastic strains and the friction history all
     carried) gives the uninterrupted run's steps to 1e-8; stress and plastic strain share their stored
-    quadrature points.  Under mpirun the 2-rank checkpoint is
-    also continued on one rank (another partition: values are matched by position).  A different
-    mesh is refused."""
+    quadrature points.  Under mpirun the 2-rank checkpoint is also continued on one rank (another
+    partition: values are matched by position).  A different mesh is refused."""
     mat = VonMises(E=40e6, nu=0.35, yield_stress=100e3)
     control = StepControl(dt=0.5, dt_max=0.5, grow=1.0, dt_min=1e-3)
 
