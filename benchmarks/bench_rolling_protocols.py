@@ -72,7 +72,26 @@ def constant_load(comm, mu, args):
     out.update(steps=len(roll.steps), newton_iterations=roll.newton_iterations, cuts=roll.cuts,
                time_s=comm.allreduce(time.perf_counter() - t0, op=MPI.MAX),
                curve=[(st.travel, st.sinkage, st.QV, st.QH) for st in roll.steps])
+    out["settled"] = settled(out["curve"], load, args.settled * D)
     return out
+
+
+def settled(curve, load: float, from_travel: float) -> dict | None:
+    """Statistics of the rolled steps at the load (not the press or the lift-off) of a
+    constant-load ``curve`` [(travel, sinkage, Q_V, Q_H)] from ``from_travel`` (m) on: mean and
+    standard deviation of the sinkage and of Q_H, mean |ds/dx|, and Q_H at ds/dx = 0 from a
+    least-squares line of Q_H against the step's slope ds/dx (None: fewer than 3 steps)."""
+    x, s, q, qh = np.array(curve, dtype=float).reshape(-1, 4).T
+    on = (q > 0.99 * load) & (x > 0)
+    x, s, qh = x[on], s[on], qh[on]
+    slope = np.diff(s) / np.diff(x)
+    late = x[1:] >= from_travel
+    if late.sum() < 3:
+        return None
+    s, qh, slope = s[1:][late], qh[1:][late], slope[late]
+    return {"from_travel": from_travel, "steps": len(s), "sinkage_mean": float(s.mean()),
+            "sinkage_std": float(s.std()), "QH_mean": float(qh.mean()), "QH_std": float(qh.std()),
+            "mean_abs_slope": float(np.abs(slope).mean()), "QH_at_zero_slope": float(np.polyfit(slope, qh, 1)[1])}
 
 
 def continuous(comm, mu, args, s_hold=None):
@@ -130,6 +149,8 @@ def main(argv=None) -> int:
     p.add_argument("--stiff", type=float, default=0.5, help="stiff start zone length, d")
     p.add_argument("--cl-travel", type=float, default=1.3, help="constant-load travel limit, d")
     p.add_argument("--steady-rtol", type=float, default=0.02)
+    p.add_argument("--settled", type=float, default=1.0,
+                   help="constant load: sinkage and Q_H statistics of the steps from this travel (d) on")
     p.add_argument("--s0", type=float, default=0.005)
     p.add_argument("--s-end", type=float, default=0.03)
     p.add_argument("--travel", type=float, default=1.2, help="continuous protocol travel, d")
@@ -166,6 +187,12 @@ def main(argv=None) -> int:
                     f"rut {1e3 * (cl.get('rut_depth') or float('nan')):.2f} mm, rebound "
                     f"{1e3 * (cl.get('rebound') or float('nan')):.2f} mm, |M|/(Q d) <= {cl.get('max_rel_moment', 0):.1e}, "
                     f"{cl['steps']} steps, {cl['time_s']:.0f} s")
+            st = cl.get("settled")
+            if st:
+                line += (f"\n          constant load from {st['from_travel'] / D:g} d of travel ({st['steps']} steps): "
+                         f"s = {1e3 * st['sinkage_mean']:.2f} +- {1e3 * st['sinkage_std']:.2f} mm, Q_H = "
+                         f"{st['QH_mean'] / 1e3:.2f} +- {st['QH_std'] / 1e3:.2f} kN, mean |ds/dx| = "
+                         f"{st['mean_abs_slope']:.4f}, Q_H at ds/dx = 0 (fit) = {st['QH_at_zero_slope'] / 1e3:.2f} kN")
             if co is not None:
                 line += (f"\n          continuous {co['status']}: s at Q_V = {args.load:g} kN: "
                          + (f"{1e3 * co['s_cont']:.2f} mm (Q_H {co['QH_cont'] / 1e3:.2f} kN); constant-load / "
