@@ -289,6 +289,43 @@ def test_step_cutting_and_clean_failure(comm):
     assert np.isfinite(fo.pressure())
 
 
+def test_newton_stops_at_a_residual_plateau(comm):
+    """A residual that repeats itself (within 0.1 % of the value one or two iterations before, three
+    iterations running: a flat plateau or a two-cycle) ends the Newton solve as DIVERGED_LOCAL_MIN,
+    so the stepper cuts at once instead of iterating to snes_max_it.  A slow steady fall and the
+    erratic but converging history of a c = 0 footing step (recorded; basic line search) go on."""
+    from petsc4py import PETSc
+    from rollsim.solver import StripFooting, strip_footing_mesh
+    from rollsim.solver.problem import STAGNATION
+    pb = StripFooting(strip_footing_mesh(comm, 1.0, 1), von_mises_from_tresca(E, NU, C)).problem
+
+    class Snes:
+        def getTolerances(self):
+            return 1e-9, 1e-30, 0.0, 40
+
+    def reasons(norms):
+        pb._history, out = [], []
+        for it, f in enumerate(norms):
+            out.append(pb._snes_converged(Snes(), it, (0.0, 0.0, f)))
+        return out
+
+    assert STAGNATION == (3, 1e-3)
+    local_min = PETSc.SNES.ConvergedReason.DIVERGED_LOCAL_MIN
+    iterating = PETSc.SNES.ConvergedReason.ITERATING
+    plateau = [1e5, 2e3, 42.0, 42.0, 41.99, 41.99]                 # the sand of README "Newton plateaus"
+    assert reasons(plateau) == [iterating] * 5 + [local_min]
+    cycle = [1e5, 3e3, 553.0, 494.0, 553.0, 494.0, 553.0]           # frictional contact
+    assert reasons(cycle) == [iterating] * 6 + [local_min]
+    slow = [1e5 * 0.99 ** k for k in range(12)]                     # 1 % per iteration
+    assert reasons(slow) == [iterating] * 12
+    erratic = [7.83e4, 4.59e3, 2.08e3, 1.78e3, 4.93e2, 2.51e2, 5.52e3, 1.04e4, 8.59e2, 8.14e4, 3.97e3,
+               3.37e2, 5.67e3, 3.51e3, 2.77e2, 4.53e2, 2.37e2, 3.74e2, 9.20e2, 6.08e1, 4.99e1, 7.91,
+               7.39, 4.02e-1, 1.47e-2]
+    assert local_min not in reasons(erratic)
+    pb.stagnation = (0, 0.0)                                        # switched off
+    assert reasons(plateau) == [iterating] * 6
+
+
 @pytest.mark.parametrize("volumetric_strain", ["pointwise", "cell-average"])
 def test_geostatic_stress_is_in_equilibrium_with_gravity(comm, volumetric_strain):
     """K0 initial stress + body force: no displacement and the footing 'reaction' is zero (with B-bar
