@@ -17,6 +17,7 @@ Both kinematics (``--kinematics``): the tests reach s/d = 0.12, where they diffe
 ``--holds N``: the N smallest measured sinkages are also rolled at a fixed sinkage, as the lab did
 (ramped over 0.5 d, held ``--hold-travel`` d, Q_V averaged over the second half of the hold): the
 ramped curve's first points are still in the start-up transient.
+``--volumetric-strain``: pointwise (default) or cell-average (B-bar).
 Model: rolling, footing method, D = s, c = sigma_0 / 2 (as ``rollsim design``).
 Prints, per measured point, Q_V measured / FE / model and the two ratios.
 """
@@ -33,6 +34,7 @@ from mpi4py import MPI
 from _bench import dump_json, read_at
 
 from rollsim.geometry import CylinderWheel, MeshOptions, build_soil_block, rolling_block
+from rollsim.scene import DEFAULT_VOLUMETRIC_STRAIN, VOLUMETRIC_STRAINS
 from rollsim.solver import SolverDivergedError, VonMises
 from rollsim.solver.rolling import WheelRolling
 from rollsim.studies.bearing_capacity import Soil, Wheel, wheel_forces
@@ -61,7 +63,8 @@ def _lab_wheel(comm, series: str, kinematics: str, travel: float, args):
     blk = rolling_block(d, length=0.4 + travel + 1.0, half_width=BED_HALF_WIDTH / d, depth=BED_DEPTH / d,
                         stiff_length=0.0)
     tm = build_soil_block(comm, blk, MeshOptions.from_accuracy(d, args.accuracy))
-    roll = WheelRolling(tm, CylinderWheel(d, b, b / 12), mat, gamma=gamma, friction=args.mu, kinematics=kinematics)
+    roll = WheelRolling(tm, CylinderWheel(d, b, b / 12), mat, gamma=gamma, friction=args.mu, kinematics=kinematics,
+                        volumetric_strain=args.volumetric_strain)
     roll.gravity_step()
     return roll, tm, mat
 
@@ -123,6 +126,8 @@ def main(argv=None) -> int:
     p.add_argument("--kinematics", nargs="*", default=["small-strain", "updated-lagrangian"],
                    choices=["small-strain", "updated-lagrangian"])
     p.add_argument("--travel", type=float, default=3.0, help="d")
+    p.add_argument("--volumetric-strain", choices=VOLUMETRIC_STRAINS, default=DEFAULT_VOLUMETRIC_STRAIN,
+                   help="pointwise (default, the README's figures) or cell-average (B-bar)")
     p.add_argument("--window", type=float, default=0.01, help="half window of the Q_V reading, d")
     p.add_argument("--out")
     args = p.parse_args(argv)

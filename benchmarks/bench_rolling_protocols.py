@@ -5,7 +5,7 @@
 
 Soil: clay, von Mises q_y = ``--yield-stress`` (default 300 kPa, i.e. c = 150 kPa), E = 40 MPa,
 nu = 0.35, gamma = 20 kN/m^3; Mn/DOT roller wheel d = 1.524 m, b = 0.4572 m; half block
-(``--length/--half-width/--depth`` in d), ``--accuracy`` preset.
+(``--length/--half-width/--depth`` in d), ``--accuracy`` preset, ``--volumetric-strain`` (default pointwise).
 
 For each friction coefficient mu:
 
@@ -37,6 +37,7 @@ from mpi4py import MPI
 from _bench import dump_json
 
 from rollsim.geometry import CylinderWheel, MeshOptions, build_soil_block, rolling_block
+from rollsim.scene import DEFAULT_VOLUMETRIC_STRAIN, VOLUMETRIC_STRAINS
 from rollsim.solver import SolverDivergedError, VonMises
 from rollsim.solver.rolling import WheelRolling, _rut
 
@@ -51,7 +52,8 @@ def _block(comm, args, stiff, length=None):
 def constant_load(comm, mu, args):
     t0 = time.perf_counter()
     mat = VonMises(E=40e6, nu=0.35, yield_stress=args.yield_stress * 1e3)
-    roll = WheelRolling(_block(comm, args, args.stiff), CylinderWheel(D, B, B / 12), mat, gamma=GAMMA, friction=mu)
+    roll = WheelRolling(_block(comm, args, args.stiff), CylinderWheel(D, B, B / 12), mat, gamma=GAMMA, friction=mu,
+                        volumetric_strain=args.volumetric_strain)
     roll.gravity_step()
     load = args.load * 1e3
     out = {"mu": mu, "dofs": roll.n_dofs, "status": "ok"}
@@ -99,7 +101,8 @@ def continuous(comm, mu, args, s_hold=None):
     and then held to the end of ``--travel`` (steady rolling at a fixed sinkage)."""
     t0 = time.perf_counter()
     mat = VonMises(E=40e6, nu=0.35, yield_stress=args.yield_stress * 1e3)
-    roll = WheelRolling(_block(comm, args, 0.0, args.cont_length), CylinderWheel(D, B, B / 12), mat, gamma=GAMMA, friction=mu)
+    roll = WheelRolling(_block(comm, args, 0.0, args.cont_length), CylinderWheel(D, B, B / 12), mat, gamma=GAMMA,
+                        friction=mu, volumetric_strain=args.volumetric_strain)
     roll.gravity_step()
     out = {"mu": mu, "status": "ok", "s_hold": s_hold}
     s_end = args.s_end * D if s_hold is None else s_hold
@@ -160,6 +163,8 @@ def main(argv=None) -> int:
                    help="also roll at the constant-load steady sinkage (ramped over --ramp d, then held)")
     p.add_argument("--hold-sinkage", type=float, nargs="+",
                    help="with --skip-constant-load: the constant-load steady sinkage (mm) of each --mu to hold")
+    p.add_argument("--volumetric-strain", choices=VOLUMETRIC_STRAINS, default=DEFAULT_VOLUMETRIC_STRAIN,
+                   help="pointwise (default, the README's figures) or cell-average (B-bar)")
     p.add_argument("--skip-continuous", action="store_true")
     p.add_argument("--skip-constant-load", action="store_true")
     p.add_argument("--out")

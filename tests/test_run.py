@@ -27,7 +27,7 @@ def test_run_scene_writes_the_run_directory(comm, tmp_mpi_path):
     assert summary["status"] == "ok", summary.get("reason")
     assert summary["ranks"] == comm.size and summary["dofs"] > 0 and summary["steps"] >= 2
     assert summary["model"]["symmetry"] == "quarter" and summary["model"]["symmetry_factor"] == 4
-    assert summary["model"]["volumetric_strain"] == "pointwise"
+    assert summary["model"]["volumetric_strain"] == "cell-average"     # the indentation scene default
     if comm.rank == 0:
         s = json.loads((tmp_mpi_path / "summary.json").read_text())
         assert s["status"] == "ok" and s["scene"] == scene.to_dict()

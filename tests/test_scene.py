@@ -40,6 +40,7 @@ def test_examples_load():
     assert rolling.wheel.diameter == pytest.approx(1.524) and rolling.wheel.fillet == pytest.approx(0.4572 / 12)
     assert rolling.soil.layers[0].thickness == pytest.approx(0.61) and rolling.soil.layers[-1].thickness is None
     assert rolling.loading.load == 133.5e3 and rolling.model.accuracy == "fast"
+    assert rolling.model.volumetric_strain == "pointwise"           # the rolling protocols' default
 
 
 def test_si_conversion_and_defaults():
@@ -52,8 +53,8 @@ def test_si_conversion_and_defaults():
     assert parse_scene(with_change("model.kinematics", "updated-lagrangian")).model.kinematics == "updated-lagrangian"
     assert scene.model.linear_solver == "auto"
     assert parse_scene(with_change("model.linear_solver", "iterative")).model.linear_solver == "iterative"
-    assert scene.model.volumetric_strain == "pointwise"
-    assert parse_scene(with_change("model.volumetric_strain", "cell-average")).model.volumetric_strain == "cell-average"
+    assert scene.model.volumetric_strain == "cell-average"          # indentation: B-bar by default
+    assert parse_scene(with_change("model.volumetric_strain", "pointwise")).model.volumetric_strain == "pointwise"
     assert scene.loading.max_sinkage == pytest.approx(0.1524)
     assert scene.to_dict()["soil"]["layers"][0]["phi_dp"] == pytest.approx(27.5)
 
