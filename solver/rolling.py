@@ -694,9 +694,10 @@ def run_rolling(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_
         if progress and root:
             what = (f"Q_V = {scene.loading.load / 1e3:g} kN" if constant_load
                     else f"s -> {scene.loading.max_sinkage:g} m")
-            log.info("%s: %s wheel d = %g m, mu = %g, %d layer(s), %s mesh: %d cells, %d dofs, %d rank(s); "
-                     "travel %g m, %s", protocol, scene.wheel.shape, d, scene.wheel.friction, len(materials),
-                     scene.model.accuracy, tagged.stats.cells, roll.n_dofs, comm.size, travel, what)
+            log.info("%s: %s wheel d = %g m, mu = %g, %d layer(s), %s mesh: %d cells, %d dofs, %s strain, "
+                     "%d rank(s); travel %g m, %s", protocol, scene.wheel.shape, d, scene.wheel.friction,
+                     len(materials), scene.model.accuracy, tagged.stats.cells, roll.n_dofs,
+                     scene.model.volumetric_strain, comm.size, travel, what)
         roll.gravity_step()
         if not constant_load:
             if advice and root:

@@ -307,9 +307,9 @@ def run_scene(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_op
 
     def indentation():
         if progress and root:
-            log.info("indentation: %s wheel d = %g m, %d layer(s), %s mesh: %d cells, %d dofs, %d rank(s)",
+            log.info("indentation: %s wheel d = %g m, %d layer(s), %s mesh: %d cells, %d dofs, %s strain, %d rank(s)",
                      scene.wheel.shape, d, len(materials), scene.model.accuracy, tagged.stats.cells, ind.n_dofs,
-                     comm.size)
+                     scene.model.volumetric_strain, comm.size)
         ind.gravity_step()
         stops = [r * d for r in REPORT_S_OVER_D if r * d < s_max]
         ind.push(s_max, stops=stops, on_step=on_step)
