@@ -1,9 +1,12 @@
 """Helpers shared by the benchmark scripts (run as ``python benchmarks/<script>.py``)."""
 from __future__ import annotations
 
+import argparse
 import json
 
 import numpy as np
+
+from rollsim.scene import DEFAULT_VOLUMETRIC_STRAIN, VOLUMETRIC_STRAINS
 
 
 def dump_json(comm, path: str | None, payload: dict) -> None:
@@ -11,6 +14,13 @@ def dump_json(comm, path: str | None, payload: dict) -> None:
     if comm.rank == 0 and path:
         with open(path, "w") as f:
             json.dump({**payload, "ranks": comm.size}, f, indent=1, default=float)
+
+
+def add_volumetric_strain(parser: argparse.ArgumentParser,
+                          help: str = "pointwise (default, the README's figures) or cell-average (B-bar)") -> None:
+    """``--volumetric-strain``: the soil's strain (the solver classes' default, pointwise, unless given)."""
+    parser.add_argument("--volumetric-strain", choices=VOLUMETRIC_STRAINS, default=DEFAULT_VOLUMETRIC_STRAIN,
+                        help=help)
 
 
 def read_at(s: np.ndarray, q: np.ndarray, r: float, half: float) -> float:

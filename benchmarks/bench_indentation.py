@@ -29,8 +29,10 @@ import time
 
 from mpi4py import MPI
 
+from _bench import add_volumetric_strain
+
 from rollsim.geometry import CylinderWheel, MeshOptions, build_soil_block, indentation_block
-from rollsim.scene import DEFAULT_VOLUMETRIC_STRAIN, LINEAR_SOLVERS, VOLUMETRIC_STRAINS
+from rollsim.scene import DEFAULT_VOLUMETRIC_STRAIN, LINEAR_SOLVERS
 from rollsim.solver import DruckerPrager, SolverDivergedError, StepControl, VonMises
 from rollsim.solver.indentation import WheelIndentation
 from rollsim.studies.bearing_capacity import Options, Soil, Wheel, wheel_forces
@@ -125,8 +127,7 @@ def main():
                          "path for every preset (default: automatic step size)")
     ap.add_argument("--step", type=float, default=0.0,
                     help="equal steps of this s/d for every preset (a failed step is cut inside it)")
-    ap.add_argument("--volumetric-strain", choices=VOLUMETRIC_STRAINS, default=DEFAULT_VOLUMETRIC_STRAIN,
-                    help="pointwise (default) or cell-average (B-bar)")
+    add_volumetric_strain(ap)
     ap.add_argument("--checkpoint", default=None,
                     help="directory: write each run's state at every reading stop and continue a run from "
                          "there when it is started again (long accurate runs over several sittings)")

@@ -31,10 +31,9 @@ import time
 import numpy as np
 from mpi4py import MPI
 
-from _bench import dump_json, read_at
+from _bench import add_volumetric_strain, dump_json, read_at
 
 from rollsim.geometry import CylinderWheel, MeshOptions, build_soil_block, rolling_block
-from rollsim.scene import DEFAULT_VOLUMETRIC_STRAIN, VOLUMETRIC_STRAINS
 from rollsim.solver import SolverDivergedError, VonMises
 from rollsim.solver.rolling import WheelRolling
 from rollsim.studies.bearing_capacity import Soil, Wheel, wheel_forces
@@ -126,8 +125,7 @@ def main(argv=None) -> int:
     p.add_argument("--kinematics", nargs="*", default=["small-strain", "updated-lagrangian"],
                    choices=["small-strain", "updated-lagrangian"])
     p.add_argument("--travel", type=float, default=3.0, help="d")
-    p.add_argument("--volumetric-strain", choices=VOLUMETRIC_STRAINS, default=DEFAULT_VOLUMETRIC_STRAIN,
-                   help="pointwise (default, the README's figures) or cell-average (B-bar)")
+    add_volumetric_strain(p)
     p.add_argument("--window", type=float, default=0.01, help="half window of the Q_V reading, d")
     p.add_argument("--out")
     args = p.parse_args(argv)

@@ -34,10 +34,9 @@ import time
 import numpy as np
 from mpi4py import MPI
 
-from _bench import dump_json
+from _bench import add_volumetric_strain, dump_json
 
 from rollsim.geometry import CylinderWheel, MeshOptions, build_soil_block, rolling_block
-from rollsim.scene import DEFAULT_VOLUMETRIC_STRAIN, VOLUMETRIC_STRAINS
 from rollsim.solver import SolverDivergedError, VonMises
 from rollsim.solver.rolling import WheelRolling, _rut
 
@@ -163,8 +162,7 @@ def main(argv=None) -> int:
                    help="also roll at the constant-load steady sinkage (ramped over --ramp d, then held)")
     p.add_argument("--hold-sinkage", type=float, nargs="+",
                    help="with --skip-constant-load: the constant-load steady sinkage (mm) of each --mu to hold")
-    p.add_argument("--volumetric-strain", choices=VOLUMETRIC_STRAINS, default=DEFAULT_VOLUMETRIC_STRAIN,
-                   help="pointwise (default, the README's figures) or cell-average (B-bar)")
+    add_volumetric_strain(p)
     p.add_argument("--skip-continuous", action="store_true")
     p.add_argument("--skip-constant-load", action="store_true")
     p.add_argument("--out")

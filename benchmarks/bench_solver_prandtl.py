@@ -22,6 +22,8 @@ import time
 import numpy as np
 from mpi4py import MPI
 
+from _bench import add_volumetric_strain
+
 from rollsim.log import setup_logging
 from rollsim.scene import DEFAULT_VOLUMETRIC_STRAIN, VOLUMETRIC_STRAINS
 from rollsim.solver import (DruckerPrager, StepControl, StripFooting, prandtl_nc, strip_footing_mesh,
@@ -55,8 +57,7 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--out", default="bench_solver_prandtl.json")
     ap.add_argument("--quick", action="store_true", help="meshes up to n = 8 only")
-    ap.add_argument("--volumetric-strain", choices=VOLUMETRIC_STRAINS, default=DEFAULT_VOLUMETRIC_STRAIN,
-                    help="of the tables; the locking comparison runs both")
+    add_volumetric_strain(ap, help="of the tables; the locking comparison runs both")
     ap.add_argument("-v", "--verbose", action="store_true")
     args = ap.parse_args()
     comm = MPI.COMM_WORLD
