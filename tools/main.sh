@@ -9,7 +9,8 @@ if [ "${1:-}" = design ]; then
   rollsim design --out "$out"
 else
   out=${1:-$_rollsim_root/out/main}
-  ranks=$(nproc); [ "$ranks" -gt 4 ] && ranks=4  # the study has four cases
+  # nproc obeys OMP_NUM_THREADS, which env.sh sets to 1 (one thread per rank): count the cores without it
+  ranks=$(env -u OMP_NUM_THREADS -u OMP_THREAD_LIMIT nproc); [ "$ranks" -gt 4 ] && ranks=4  # four cases
   mpirun -n "$ranks" --oversubscribe rollsim study "$_rollsim_root/studies/examples/main.toml" --out "$out"
 fi
 echo "report: $out/report.md"
