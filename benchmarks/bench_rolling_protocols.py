@@ -38,7 +38,7 @@ from _bench import add_volumetric_strain, dump_json
 
 from rollsim.geometry import CylinderWheel, MeshOptions, build_soil_block, rolling_block
 from rollsim.solver import SolverDivergedError, VonMises
-from rollsim.solver.rolling import WheelRolling, _rut
+from rollsim.solver.rolling import STEADY_MIN_TRAVEL, WheelRolling, _rut
 
 D, B, GAMMA = 1.524, 0.4572, 20e3
 
@@ -60,13 +60,15 @@ def constant_load(comm, mu, args):
         res = roll.press_to_load(load, 0.25 * D)
         if res.status != "ok":
             raise SolverDivergedError(f"press: {res.status} {res.reason}", None, [])
-        ss = roll.roll_at_load(load, args.cl_travel * D, x_soft=args.stiff * D, steady_rtol=args.steady_rtol)
+        ss = roll.roll_at_load(load, args.cl_travel * D, x_soft=args.stiff * D, steady_rtol=args.steady_rtol,
+                               min_travel=args.steady_min_travel * D)
         L = roll.contact_length()
+        # the rolled steps only: the lift-off moves the wheel vertically without a torque balance
+        max_rel_moment = max(abs(st.moment) / (load * D) for st in roll.steps if st.travel > 0)
         roll.lift()
         rut = _rut(roll, ss, args.stiff * D, L)
         out.update(steady=ss.reached, s_cl=ss.sinkage, QH_cl=ss.QH, travel_at_steady=ss.travel,
-                   rut_depth=rut["rut_depth_m"], rebound=rut["rebound_m"],
-                   max_rel_moment=max(abs(st.moment) / (load * D) for st in roll.steps if st.travel > 0),
+                   rut_depth=rut["rut_depth_m"], rebound=rut["rebound_m"], max_rel_moment=max_rel_moment,
                    trials=int(sum(st.trials for st in roll.steps)))
     except SolverDivergedError as err:
         out["status"] = f"failed: {err}"
@@ -151,6 +153,8 @@ def main(argv=None) -> int:
     p.add_argument("--stiff", type=float, default=0.5, help="stiff start zone length, d")
     p.add_argument("--cl-travel", type=float, default=1.3, help="constant-load travel limit, d")
     p.add_argument("--steady-rtol", type=float, default=0.02)
+    p.add_argument("--steady-min-travel", type=float, default=STEADY_MIN_TRAVEL,
+                   help="constant load: look for steady state after this travel (d) on the test soil")
     p.add_argument("--settled", type=float, default=1.0,
                    help="constant load: sinkage and Q_H statistics of the steps from this travel (d) on")
     p.add_argument("--s0", type=float, default=0.005)

@@ -51,6 +51,12 @@ log = get_logger("solver")
 
 #: travel stepping, in units of the contact element size h (scaled in :meth:`WheelRolling.roll`)
 DEFAULT_ROLL_CONTROL = dict(dt=0.25, dt_min=1e-3, dt_max=0.5, easy_iterations=8, max_cuts=8, grow=1.5)
+#: constant load: travel of the wheel centre on the test soil (past the stiff start zone), in d,
+#: before steady state is looked for.  Leaving the stiff zone the wheel overshoots, and one
+#: window on the overshoot's plateau can look steady; on the fast preset the plateau ended
+#: 0.3-0.6 d past the zone's end and the sinkage had settled by 0.7-0.95 d (README, "Do the two
+#: protocols agree?" and the Mn/DOT run)
+STEADY_MIN_TRAVEL = 0.75
 
 
 @dataclass
@@ -89,14 +95,15 @@ class SteadyState:
 
 
 def detect_steady_state(steps, x_start: float, x_soft: float, window: float, s_rtol: float,
-                        qh_rtol: float) -> SteadyState | None:
+                        qh_rtol: float, min_travel: float = 0.0) -> SteadyState | None:
     """Steady state of the last steps, or ``None``.  Only steps whose wheel centre is beyond
-    ``x_soft + window / 2`` (the contact patch on the test soil) count; the window is the last
+    ``x_soft + max(window / 2, min_travel)`` count (the contact patch on the test soil, and the
+    transient after the stiff zone rolled out: ``min_travel``, m); the window is the last
     ``window`` metres of travel and needs at least 4 steps.  The change of a quantity over the
     window is its least-squares slope times ``window`` (robust to the element-passing ripple),
     relative to the mean (for ``Q_H``: to at least 1 % of ``Q_V``, so a nearly zero rolling
     resistance, e.g. on elastic soil, does not block the detection)."""
-    pts = [st for st in steps if st.travel > 0 and x_start + st.travel >= x_soft + 0.5 * window]
+    pts = [st for st in steps if st.travel > 0 and x_start + st.travel >= x_soft + max(0.5 * window, min_travel)]
     if not pts:
         return None
     end = pts[-1].travel
@@ -359,7 +366,7 @@ class WheelRolling:
 
     def roll_at_load(self, load: float, travel: float, *, x_soft: float | None = None,
                      steady_rtol: float = 0.02, steady_qh_rtol: float = 0.05, run_out: float = 1.0,
-                     min_window_elements: float = 3.0,
+                     min_window_elements: float = 3.0, min_travel: float | None = None,
                      on_step: Callable[[RollingStep], None] | None = None,
                      control: StepControl | None = None) -> "SteadyState":
         """Roll at constant whole-wheel ``Q_V = load`` (N), towed, up to ``travel`` (m) in +x.
@@ -371,13 +378,21 @@ class WheelRolling:
         default: the start position), sinkage and ``Q_H`` trends over a window of one contact
         length (at least ``min_window_elements`` contact elements: on coarse meshes the force and
         sinkage ripple as the wheel passes elements) change by less than ``steady_rtol`` /
-        ``steady_qh_rtol``.  The wheel then rolls ``run_out`` windows further (the rut behind it
-        is then unloaded) and stops.  Default ``control``: fixed steps of a quarter element.
+        ``steady_qh_rtol``; the window counts only once the wheel centre has rolled ``min_travel``
+        (m; default :data:`STEADY_MIN_TRAVEL` d) past ``x_soft``, so the overshoot after the stiff
+        zone is not taken for steady rolling.  The wheel then rolls ``run_out`` windows further
+        (the rut behind it is then unloaded) and stops.  Default ``control``: fixed steps of a
+        quarter element.
         Returns the :class:`SteadyState` (``reached = False`` when ``travel`` ran out first)."""
         if not load > 0 or not travel > 0:
             raise ValueError(f"load and travel must be > 0, got {load}, {travel}")
         self.target_load = float(load)
         x_soft = self.x_start if x_soft is None else float(x_soft)
+        min_travel = STEADY_MIN_TRAVEL * 2 * self.R if min_travel is None else float(min_travel)
+        if self.x_start + travel < x_soft + min_travel:
+            log.warning("the travel of %g m ends %.3f m before the wheel has rolled the %.3f m on the test soil "
+                        "after which steady state is looked for: no steady state will be detected",
+                        travel, x_soft + min_travel - self.x_start - travel, min_travel)
         found: list[SteadyState] = []
         stop_at = [math.inf]
 
@@ -387,7 +402,8 @@ class WheelRolling:
             if not found:
                 # the element-passing ripple has the period of a contact element: average >= 3 of them
                 window = max(self.contact_length(st), min_window_elements * self.contact.h)
-                ss = detect_steady_state(self.steps, self.x_start, x_soft, window, steady_rtol, steady_qh_rtol)
+                ss = detect_steady_state(self.steps, self.x_start, x_soft, window, steady_rtol, steady_qh_rtol,
+                                         min_travel)
                 if ss is not None:
                     found.append(ss)
                     stop_at[0] = st.travel + run_out * ss.window
@@ -625,7 +641,8 @@ def rolling_mesh(scene, comm: MPI.Comm, *, length: float | None = None, half_wid
 def run_rolling(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_options: dict | None = None,
                 write_fields: bool = True, penalty: float | None = None, initial_sinkage: float | None = None,
                 ramp: float | None = None, block: dict | None = None, moment_rtol: float = 2e-3,
-                steady_rtol: float = 0.02, steady_qh_rtol: float = 0.05, min_window_elements: float = 3.0) -> dict:
+                steady_rtol: float = 0.02, steady_qh_rtol: float = 0.05, min_window_elements: float = 3.0,
+                steady_min_travel: float | None = None) -> dict:
     """A rolling protocol of ``scene`` on ``comm``; writes the run directory of
     ``shared/spec/interfaces.md`` (as :func:`~rollsim.solver.run.run_scene`) and returns the summary.
 
@@ -635,7 +652,8 @@ def run_rolling(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_
 
     ``rolling-constant-load``: gravity, ``loading.load`` applied on the stiff start zone (0.75 d
     long, elastic, 10x the top layer's modulus), then rolling at that load until steady (see
-    :meth:`WheelRolling.roll_at_load`; ``steady_rtol`` / ``steady_qh_rtol``) or ``loading.travel``;
+    :meth:`WheelRolling.roll_at_load`; ``steady_rtol`` / ``steady_qh_rtol``, looked for after
+    ``steady_min_travel`` m on the test soil, default :data:`STEADY_MIN_TRAVEL` d) or ``loading.travel``;
     the summary reports the steady sinkage, ``Q_H``, the rut depth (mean surface settlement on the
     wheel path over the part rolled in steady state, after the wheel has been lifted off: the
     permanent rut) and the rebound (sinkage - rut depth); ``rut_profile.csv`` has the profile.
@@ -710,7 +728,7 @@ def run_rolling(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_
             return f"pressing the wheel on the stiff start zone: {res.status}: {res.reason}"
         steady = roll.roll_at_load(scene.loading.load, travel, x_soft=x_soft, on_step=on_step,
                                    steady_rtol=steady_rtol, steady_qh_rtol=steady_qh_rtol,
-                                   min_window_elements=min_window_elements)
+                                   min_window_elements=min_window_elements, min_travel=steady_min_travel)
         if not steady.reached:
             log.warning("no steady state within the travel of %g m: the values are those of the last "
                         "step (a longer travel or a coarser steady tolerance may help)", travel)
@@ -772,7 +790,9 @@ def run_rolling(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_
     }
     if constant_load:
         summary["model"].update(stiff_zone_end_m=x_soft, load_rtol=roll.load_rtol, steady_rtol=steady_rtol,
-                                steady_qh_rtol=steady_qh_rtol, steady_min_window_elements=min_window_elements)
+                                steady_qh_rtol=steady_qh_rtol, steady_min_window_elements=min_window_elements,
+                                steady_min_travel_m=(STEADY_MIN_TRAVEL * d if steady_min_travel is None
+                                                     else steady_min_travel))
         if steady is not None:
             summary["steady_state"] = dataclasses.asdict(steady)
             summary.update(sinkage_m=steady.sinkage, QH_N=steady.QH, QV_N=steady.QV)
