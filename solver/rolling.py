@@ -706,6 +706,7 @@ def run_rolling(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_
     lifted = False
     rolling_contact_length = 0.0
     x_soft = stiff_length * d if stiff_length else None
+    min_travel = STEADY_MIN_TRAVEL * d if steady_min_travel is None else float(steady_min_travel)
 
     def rolling():
         nonlocal steady, lifted, rolling_contact_length
@@ -728,7 +729,7 @@ def run_rolling(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_
             return f"pressing the wheel on the stiff start zone: {res.status}: {res.reason}"
         steady = roll.roll_at_load(scene.loading.load, travel, x_soft=x_soft, on_step=on_step,
                                    steady_rtol=steady_rtol, steady_qh_rtol=steady_qh_rtol,
-                                   min_window_elements=min_window_elements, min_travel=steady_min_travel)
+                                   min_window_elements=min_window_elements, min_travel=min_travel)
         if not steady.reached:
             log.warning("no steady state within the travel of %g m: the values are those of the last "
                         "step (a longer travel or a coarser steady tolerance may help)", travel)
@@ -791,8 +792,7 @@ def run_rolling(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_
     if constant_load:
         summary["model"].update(stiff_zone_end_m=x_soft, load_rtol=roll.load_rtol, steady_rtol=steady_rtol,
                                 steady_qh_rtol=steady_qh_rtol, steady_min_window_elements=min_window_elements,
-                                steady_min_travel_m=(STEADY_MIN_TRAVEL * d if steady_min_travel is None
-                                                     else steady_min_travel))
+                                steady_min_travel_m=min_travel)
         if steady is not None:
             summary["steady_state"] = dataclasses.asdict(steady)
             summary.update(sinkage_m=steady.sinkage, QH_N=steady.QH, QV_N=steady.QV)

@@ -126,6 +126,16 @@ def _synthetic(travels, sinkages, qh):
             for i, (x, s, h) in enumerate(zip(travels, sinkages, qh))]
 
 
+def _first_steady(x, s, qh, x_start, x_soft, window, min_travel=0.0):
+    """The first detection while the record grows step by step (as ``roll_at_load`` calls it)."""
+    for n in range(1, len(x) + 1):
+        found = detect_steady_state(_synthetic(x[:n], s[:n], qh[:n]), x_start, x_soft, window, 0.02, 0.05,
+                                    min_travel)
+        if found is not None:
+            return found
+    return None
+
+
 def test_steady_state_detection():
     """Sinkage rising into the soft soil then flat with an element-passing ripple: steady state is
     found only once a whole contact-length window lies on the soft soil and the trends are flat;
@@ -134,11 +144,7 @@ def test_steady_state_detection():
     x = np.arange(0.0, 2.0, 0.02)
     s = 0.02 + 0.01 * np.clip((x_start + x - x_soft) / 0.3, 0.0, 1.0) + 2e-5 * np.sin(40 * x)
     qh = 5e3 + 3e3 * np.clip((x_start + x - x_soft) / 0.3, 0.0, 1.0) + 20 * np.cos(35 * x)
-    found = None
-    for n in range(1, len(x) + 1):
-        found = detect_steady_state(_synthetic(x[:n], s[:n], qh[:n]), x_start, x_soft, L, 0.02, 0.05)
-        if found is not None:
-            break
+    found = _first_steady(x, s, qh, x_start, x_soft, L)
     assert found is not None and found.reached
     # the ramp ends at x_start + travel = x_soft + 0.3, and the window (0.2) must be past it mostly
     assert x_soft + 0.3 - x_start < found.travel < x_soft + 0.3 + 2 * L - x_start
@@ -150,15 +156,6 @@ def test_steady_state_detection():
     on_stiff = x_start + x < x_soft + 0.5 * L
     assert detect_steady_state(_synthetic(x[on_stiff], flat[on_stiff], qh[on_stiff]), x_start, x_soft, L,
                                0.02, 0.05) is None
-
-
-def _first_steady(x, s, qh, x_start, x_soft, window, min_travel):
-    for n in range(1, len(x) + 1):
-        found = detect_steady_state(_synthetic(x[:n], s[:n], qh[:n]), x_start, x_soft, window, 0.02, 0.05,
-                                    min_travel)
-        if found is not None:
-            return found
-    return None
 
 
 def test_steady_state_waits_for_the_overshoot_to_decay():
