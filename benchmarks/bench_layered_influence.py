@@ -1,6 +1,7 @@
 """Influence depth of a weak lower layer under the rolling wheel: FE (constant load) vs the model.
 
     mpirun -n 2 python benchmarks/bench_layered_influence.py --cases 17 18 19 --out bench_layered.json
+    mpirun -n 2 python benchmarks/bench_layered_influence.py --cases 13 14 15 --relaxation-length 1
 
 Cases of ``shared/data/cases_layered.csv`` (three layers of 0.4 d over a fixed base; Mn/DOT roller,
 d = 1.524 m, b = 0.4572 m, mu = 0.8, nu = 0.35, gamma = 20 kN/m^3; Drucker-Prager per layer),
@@ -15,6 +16,8 @@ more or less than ``--tolerance`` against the homogeneous case, compared at equa
 mean over the last ``--compare`` d of the shortest run).  The model's influence depth
 (``rollsim influence``: Meyerhof & Hanna, rolling footing B, L of the top layer at this load)
 is printed for the same pair of layers, c and phi from the compression match.
+``--relaxation-length`` (mm): the Duvaut-Lions regularisation of the soil (``[model]
+relaxation_length``); the non-associated sand of cases 13-15 needs it.
 """
 from __future__ import annotations
 
@@ -44,7 +47,7 @@ def case_rows() -> dict[int, dict]:
     return {int(r["case"]): r for r in csv.DictReader(lines)}
 
 
-def scene_of(row: dict, accuracy: str, travel: float):
+def scene_of(row: dict, accuracy: str, travel: float, relaxation_length: float = 0.0):
     layers = []
     for k in (1, 2, 3):
         layer = {"model": "drucker-prager", "E": float(row[f"E{k}_MPa"]) * 1e6, "nu": 0.35,
@@ -55,7 +58,7 @@ def scene_of(row: dict, accuracy: str, travel: float):
     return parse_scene({"wheel": {"diameter": D, "width": B, "friction": 0.8},
                         "soil": {"gamma": GAMMA, "layers": layers},
                         "loading": {"protocol": "rolling-constant-load", "load": LOAD, "travel": travel},
-                        "model": {"accuracy": accuracy}})
+                        "model": {"accuracy": accuracy, "relaxation_length": relaxation_length}})
 
 
 def _weaker(row: dict, k: int) -> bool:
@@ -108,6 +111,8 @@ def main(argv=None) -> int:
     p.add_argument("--travel", type=float, default=1.6, help="travel limit, d")
     p.add_argument("--tolerance", type=float, default=0.05, help="relative sinkage change that counts")
     p.add_argument("--compare", type=float, default=0.25, help="travel window of the comparison, d")
+    p.add_argument("--relaxation-length", type=float, default=0.0,
+                   help="Duvaut-Lions relaxation length, mm of travel ([model] relaxation_length; 0: off)")
     p.add_argument("--out-dir", default="out/bench_layered")
     p.add_argument("--out")
     args = p.parse_args(argv)
@@ -117,7 +122,7 @@ def main(argv=None) -> int:
     for case in args.cases:
         t0 = time.perf_counter()
         row = rows[case]
-        scene = scene_of(row, args.accuracy, args.travel * D)
+        scene = scene_of(row, args.accuracy, args.travel * D, 1e-3 * args.relaxation_length)
         summary = run_rolling(scene, pathlib.Path(args.out_dir) / f"case{case}", comm, progress=False,
                               block={"length": args.length, "half_width": args.half_width,
                                      "depth": 1.2 + args.below, "stiff_length": args.stiff})
@@ -125,7 +130,8 @@ def main(argv=None) -> int:
         res = {"case": case, "status": summary["status"], "weak_from_d": weak_depth(row),
                "steady": ss.get("reached"), "sinkage_m": summary.get("sinkage_m"), "QH_N": summary.get("QH_N"),
                "rut_depth_m": summary.get("rut_depth_m"), "model_H_m": model_influence(row),
-               "steps": summary.get("steps"), "time_s": comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)}
+               "steps": summary.get("steps"), "newton_iterations": summary.get("newton_iterations"),
+               "time_s": comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)}
         results.append(res)
         if comm.rank == 0:
             H = res["model_H_m"]
@@ -133,6 +139,7 @@ def main(argv=None) -> int:
                   f"s = {1e3 * (res['sinkage_m'] or float('nan')):.2f} mm, Q_H = {(res['QH_N'] or float('nan')) / 1e3:.2f} kN, "
                   f"rut {1e3 * (res['rut_depth_m'] or float('nan')):.2f} mm; model influence depth "
                   + (f"{H:.3f} m = {H / D:.2f} d" if H is not None else "-") + f"; {res['steps']} steps, "
+                  f"{res['newton_iterations']} Newton iterations, "
                   f"{res['time_s']:.0f} s", flush=True)
     if comm.rank == 0:
         # compare at equal travel: the mean sinkage over the last --compare d of the shortest run

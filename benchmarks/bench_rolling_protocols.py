@@ -5,7 +5,8 @@
 
 Soil: clay, von Mises q_y = ``--yield-stress`` (default 300 kPa, i.e. c = 150 kPa), E = 40 MPa,
 nu = 0.35, gamma = 20 kN/m^3; Mn/DOT roller wheel d = 1.524 m, b = 0.4572 m; half block
-(``--length/--half-width/--depth`` in d), ``--accuracy`` preset, ``--volumetric-strain`` (default pointwise).
+(``--length/--half-width/--depth`` in d), ``--accuracy`` preset, ``--volumetric-strain`` (default pointwise),
+``--relaxation-length`` (mm; Duvaut-Lions, default off).
 
 For each friction coefficient mu:
 
@@ -52,7 +53,8 @@ def constant_load(comm, mu, args):
     t0 = time.perf_counter()
     mat = VonMises(E=40e6, nu=0.35, yield_stress=args.yield_stress * 1e3)
     roll = WheelRolling(_block(comm, args, args.stiff), CylinderWheel(D, B, B / 12), mat, gamma=GAMMA, friction=mu,
-                        volumetric_strain=args.volumetric_strain)
+                        volumetric_strain=args.volumetric_strain,
+                        relaxation_length=1e-3 * args.relaxation_length)
     roll.gravity_step()
     load = args.load * 1e3
     out = {"mu": mu, "dofs": roll.n_dofs, "status": "ok"}
@@ -103,7 +105,8 @@ def continuous(comm, mu, args, s_hold=None):
     t0 = time.perf_counter()
     mat = VonMises(E=40e6, nu=0.35, yield_stress=args.yield_stress * 1e3)
     roll = WheelRolling(_block(comm, args, 0.0, args.cont_length), CylinderWheel(D, B, B / 12), mat, gamma=GAMMA,
-                        friction=mu, volumetric_strain=args.volumetric_strain)
+                        friction=mu, volumetric_strain=args.volumetric_strain,
+                        relaxation_length=1e-3 * args.relaxation_length)
     roll.gravity_step()
     out = {"mu": mu, "status": "ok", "s_hold": s_hold}
     s_end = args.s_end * D if s_hold is None else s_hold
@@ -167,6 +170,8 @@ def main(argv=None) -> int:
     p.add_argument("--hold-sinkage", type=float, nargs="+",
                    help="with --skip-constant-load: the constant-load steady sinkage (mm) of each --mu to hold")
     add_volumetric_strain(p)
+    p.add_argument("--relaxation-length", type=float, default=0.0,
+                   help="Duvaut-Lions relaxation length of the soil, mm of travel (0: off)")
     p.add_argument("--skip-continuous", action="store_true")
     p.add_argument("--skip-constant-load", action="store_true")
     p.add_argument("--out")

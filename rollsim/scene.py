@@ -89,6 +89,7 @@ class ModelSpec:
     kinematics: str = "small-strain"   # or "updated-lagrangian" (incremental large deformation)
     linear_solver: str = "auto"        # or "direct" (MUMPS LU), "iterative" (GMRES + AMG)
     volumetric_strain: str = DEFAULT_VOLUMETRIC_STRAIN   # parse_scene: default_volumetric_strain(protocol)
+    relaxation_length: float = 0.0     # m of travel; > 0: Duvaut-Lions regularisation of rolling (0: off)
 
 
 def default_volumetric_strain(protocol: str) -> str:
@@ -282,7 +283,10 @@ def parse_scene(data: dict) -> Scene:
                       kinematics=model_table.choice("kinematics", KINEMATICS, default="small-strain"),
                       linear_solver=model_table.choice("linear_solver", LINEAR_SOLVERS, default="auto"),
                       volumetric_strain=model_table.choice("volumetric_strain", VOLUMETRIC_STRAINS,
-                                                           default=default_volumetric_strain(loading.protocol)))
+                                                           default=default_volumetric_strain(loading.protocol)),
+                      relaxation_length=model_table.quantity("relaxation_length", LENGTH, default=0.0, minimum=0.0))
+    if model.relaxation_length > 0 and loading.protocol == "indentation":
+        raise InputError("model.relaxation_length", "applies to the rolling protocols only")
     model_table.done()
     top.done()
     return Scene(wheel, soil, loading, model)

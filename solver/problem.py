@@ -24,6 +24,7 @@ term, with the wheel position in a ``fem.Constant``, see ``solver/contact.py``);
 """
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field
 from typing import Sequence
@@ -39,7 +40,8 @@ from rollsim import compat
 from rollsim.log import get_logger
 from rollsim.scene import DEFAULT_VOLUMETRIC_STRAIN, KINEMATICS, LINEAR_SOLVERS, VOLUMETRIC_STRAINS
 
-from .return_map import return_map, elastic_stiffness, yield_function, ReturnResult, ELASTIC, PLASTIC, APEX
+from .return_map import (APEX, ELASTIC, PLASTIC, ReturnResult, duvaut_lions, elastic_stiffness, return_map,
+                         yield_function)
 
 __all__ = ["NewtonReport", "PlasticityProblem", "mandel_strain", "DEFAULT_PETSC_OPTIONS", "ITERATIVE_SOLVER_OPTIONS",
            "LINEAR_SOLVERS", "AUTO_ITERATIVE_DOFS", "REASON_PETSC_ERROR", "rigid_body_modes"]
@@ -240,6 +242,9 @@ class PlasticityProblem:
         self.force_rtol = force_rtol
         self.divergence_factor = 1e4
         self.stagnation = STAGNATION
+        #: Duvaut-Lions regularisation of the next steps (:func:`~rollsim.solver.return_map.duvaut_lions`):
+        #: the step's pseudo-time over the relaxation time; ``inf`` (default): rate-independent
+        self.relaxation = math.inf
 
         nc = self.ncomp
         self.Qs = compat.quadrature_space(mesh, self.qdeg, (nc,))
@@ -465,6 +470,8 @@ class PlasticityProblem:
                 res.sigma[qp], res.deps_p[qp], res.dlam[qp], res.state[qp] = r.sigma, r.deps_p, r.dlam, r.state
                 if tangent:
                     res.tangent[qp] = r.tangent
+        if math.isfinite(self.relaxation):
+            self._relax(res, sig_n, deps)
         self._set_owned(self.sigma, res.sigma)
         if tangent:
             self._set_owned(self.tangent, res.tangent.reshape(self.n_qp, nc * nc))
@@ -472,6 +479,12 @@ class PlasticityProblem:
         self.state = res.state
         self.timings["return_map"] += time.perf_counter() - t0
         return res
+
+    def _relax(self, res: ReturnResult, sig_n: np.ndarray, deps: np.ndarray) -> None:
+        """Duvaut-Lions step (:func:`~rollsim.solver.return_map.duvaut_lions`) with :attr:`relaxation`."""
+        for mat, qp in self._groups:        # qp: the group's owned quadrature points
+            D = elastic_stiffness(mat, self.ncomp)
+            duvaut_lions(res, sig_n[qp] + deps[qp] @ D.T, D, self.relaxation, qp)
 
     def counts(self) -> dict[str, int]:
         """Global numbers of elastic / plastic / apex quadrature points of the current state."""

@@ -34,11 +34,12 @@ and ``C = 0`` at the apex (the returned stress does not depend on the strain the
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["ELASTIC", "PLASTIC", "APEX", "ReturnResult", "return_map", "elastic_stiffness",
+__all__ = ["ELASTIC", "PLASTIC", "APEX", "ReturnResult", "return_map", "duvaut_lions", "elastic_stiffness",
            "identity_vector", "deviatoric_projector", "invariants", "yield_function",
            "tensor_to_mandel", "mandel_to_tensor"]
 
@@ -211,3 +212,31 @@ def return_map(material, sigma_n: np.ndarray, deps: np.ndarray, tangent: bool = 
         if np.any(apex):
             Ct[apex] = 0.0
     return ReturnResult(sigma=sigma, tangent=Ct, deps_p=deps_p, dlam=dlam, state=state)
+
+
+def duvaut_lions(res: ReturnResult, sigma_trial: np.ndarray, D: np.ndarray, relaxation: float,
+                 sel=slice(None)) -> None:
+    """Duvaut-Lions viscoplastic step (backward Euler, e.g. Simo & Hughes 1998, sec. 2.7) from the
+    rate-independent return ``res``, in place for the points ``sel`` (``sigma_trial``: their trial
+    stresses, ``D``: their elasticity): with ``r = relaxation`` (the step's pseudo-time over the
+    relaxation time) and ``w = r / (1 + r)``::
+
+        sigma = sigma_tr + w (sigma_inv - sigma_tr),   C = (1 - w) D + w C_inv
+
+    and the plastic strain and multiplier increments scaled by ``w``.  ``r = inf`` leaves the
+    rate-independent return; as ``r -> 0`` the step becomes elastic, so a cut step is better
+    conditioned than the rate-independent one (whose tangent can be near-singular under
+    non-associated flow).  Over many steps the stress relaxes to the yield surface with the
+    relaxation time: the overstress in steady flow is ``D`` times the plastic strain over one
+    relaxation time."""
+    if not relaxation >= 0:
+        raise ValueError(f"relaxation must be >= 0, got {relaxation}")
+    if math.isinf(relaxation):
+        return
+    w = relaxation / (1.0 + relaxation)
+    sig_tr = sigma_trial
+    res.sigma[sel] = sig_tr + w * (res.sigma[sel] - sig_tr)
+    if res.tangent is not None:
+        res.tangent[sel] = (1.0 - w) * D + w * res.tangent[sel]
+    res.deps_p[sel] *= w
+    res.dlam[sel] *= w

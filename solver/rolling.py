@@ -157,12 +157,16 @@ class WheelRolling:
     (the stiff start zone, tag ``STIFF_ZONE_TAG``, gets ``stiff_material`` if present in the mesh
     and not in ``materials``: by default elastic with 10x the top layer's modulus);
     ``x_start``: wheel start position (m; default ``ROLLING_START d``); ``moment_rtol``: torque
-    balance tolerance relative to ``Q_V d``; other keywords as :class:`WheelIndentation`.
+    balance tolerance relative to ``Q_V d``; ``relaxation_length`` (m, 0: off): Duvaut-Lions
+    regularisation of the soil while the wheel moves (press, roll, lift), with the wheel's path
+    as pseudo-time: a step that moves the wheel by ``dx`` has ``r = dx / relaxation_length``
+    (see :func:`~rollsim.solver.return_map.duvaut_lions`); other keywords as :class:`WheelIndentation`.
     """
 
     def __init__(self, tagged, wheel, materials, *, gamma: float = 0.0, friction: float = 0.0,
                  x_start: float | None = None, moment_rtol: float = 2e-3, max_trials: int = 12,
-                 stiff_material=None, petsc_options: dict | None = None, penalty: float | None = None, **kw):
+                 stiff_material=None, petsc_options: dict | None = None, penalty: float | None = None,
+                 relaxation_length: float = 0.0, **kw):
         from rollsim.geometry import ROLLING_START, STIFF_ZONE_TAG
         mats = dict(materials) if isinstance(materials, dict) else {1: materials}
         if STIFF_ZONE_TAG in tagged.cell_names.values() and STIFF_ZONE_TAG not in mats:
@@ -189,6 +193,9 @@ class WheelRolling:
         self.friction = float(friction)
         self.moment_rtol = float(moment_rtol)
         self.max_trials = int(max_trials)
+        if not relaxation_length >= 0:
+            raise ValueError(f"relaxation_length must be >= 0 (m), got {relaxation_length}")
+        self.relaxation_length = float(relaxation_length)
         self.steps: list[RollingStep] = []
         self.target_load: float | None = None   # N, whole wheel: set by roll_at_load
         self.load_rtol = 2e-3
@@ -270,7 +277,9 @@ class WheelRolling:
 
         def set_load(t):
             self._attempts += 1
-            self.contact.set_pose(centre=self._centre(x, s_from + (s_to - s_from) * t), angle=th)
+            s = s_from + (s_to - s_from) * t
+            self._relax_over(abs(s - self.sinkage))
+            self.contact.set_pose(centre=self._centre(x, s), angle=th)
 
         def on_t(t):
             st = self._record(dx=0.0, dth=0.0, iterations=int(self.problem.snes.getIterationNumber()), trials=1)
@@ -312,6 +321,7 @@ class WheelRolling:
             self._attempts += 1
             x_prev = self.position
             self._step_dx = (x0 + t) - x_prev
+            self._relax_over(abs(self._step_dx))
             s = sink(t) if self.target_load is None else self.sinkage + self._sink_rate * self._step_dx
             self.contact.set_pose(centre=self._centre(x0 + t, s),
                                   angle=self.rotation + (1.0 - self.slip_ratio) * self._step_dx / self.R)
@@ -455,6 +465,11 @@ class WheelRolling:
     _last_dth = 0.0
 
     # ------------------------------------------------------------------ internals
+    def _relax_over(self, distance: float) -> None:
+        """Duvaut-Lions relaxation of the step in which the wheel moves ``distance`` (m)."""
+        if self.relaxation_length > 0:
+            self.problem.relaxation = distance / self.relaxation_length
+
     def _run(self, set_load, control, on_t) -> None:
         pb = _TorqueBalancedProblem(self)
         try:
@@ -463,6 +478,8 @@ class WheelRolling:
             c, th = np.array(self.contact.centre_n.value), float(self.contact.angle_n.value)
             self.contact.set_pose(centre=c, angle=th)
             raise
+        finally:
+            self.problem.relaxation = math.inf
 
     def _solve_torque_balance(self) -> NewtonReport:
         """Newton solve(s) at the set translation; with friction and while rolling, iterate the
@@ -686,7 +703,8 @@ def run_rolling(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_
     roll = WheelRolling(tagged, wheel, materials, gamma=scene.soil.gamma, friction=scene.wheel.friction,
                         petsc_options=petsc_options, penalty=scene_penalty(scene, penalty), moment_rtol=moment_rtol,
                         kinematics=scene.model.kinematics, linear_solver=scene.model.linear_solver,
-                        volumetric_strain=scene.model.volumetric_strain)
+                        volumetric_strain=scene.model.volumetric_strain,
+                        relaxation_length=scene.model.relaxation_length)
     writer = None
     if write_fields:
         from .fields import FieldWriter
@@ -741,6 +759,10 @@ def run_rolling(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_
     status, reason, diagnostics = run_protected(
         rolling, comm, lambda: {"last_converged_travel_m": roll.position - roll.x_start,
                                 "last_converged_sinkage_m": roll.sinkage, "step_cuts_total": roll.cuts})
+    if status == "failed" and roll.relaxation_length == 0 and _non_associated(materials):
+        reason += ("; the soil's flow is non-associated (dilation below the friction angle), whose Newton tangent "
+                   "can be near-singular: [model] relaxation_length = \"1 mm\" (Duvaut-Lions regularisation, "
+                   "README \"Non-associated sand\") may let the run converge")
 
     rut = None
     if lifted:
@@ -785,7 +807,8 @@ def run_rolling(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_
         "moment_Nm": last.get("moment_Nm", 0.0),
         "rotation_rad": roll.rotation,
         "max_QV_N": max((row["QV_N"] for row in rows), default=0.0),
-        "model": {**model_summary(scene, roll), "x_start_m": roll.x_start, "moment_rtol": roll.moment_rtol},
+        "model": {**model_summary(scene, roll), "x_start_m": roll.x_start, "moment_rtol": roll.moment_rtol,
+                  "relaxation_length_m": roll.relaxation_length},
         "files": {"history": "history.csv", "fields": ["fields/fields.xdmf", "fields/deformed.xdmf"]
                   if write_fields else [], "plot": "force_sinkage.png"},
     }
@@ -813,6 +836,12 @@ def run_rolling(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_
         except Exception as err:  # noqa: BLE001
             log.warning("travel plot failed: %s", err)
     return finish_run(out, rows, scene, summary, comm, progress=progress)
+
+
+def _non_associated(materials) -> bool:
+    """Any frictional material whose dilation is below its friction angle."""
+    mats = materials.values() if isinstance(materials, dict) else [materials]
+    return any(getattr(m, "tan_phi", 0.0) > getattr(m, "tan_psi", 0.0) * (1 + 1e-12) for m in mats)
 
 
 #: stiff start zone of the constant-load protocol, x / d (report: 0.75 d, wheel starting at 0.4 d)

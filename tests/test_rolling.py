@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import csv
 import json
+import math
 
 import numpy as np
 import pytest
@@ -14,7 +15,7 @@ from mpi4py import MPI
 
 from rollsim.geometry import CylinderWheel, MeshOptions, build_soil_block, rolling_block
 from rollsim.scene import parse_scene
-from rollsim.solver import VonMises
+from rollsim.solver import DruckerPrager, VonMises
 from rollsim.solver.rolling import (VERIFIED_RAMP_RATE, RollingStep, WheelRolling, detect_steady_state, ramp_advice,
                                     run_rolling)
 from rollsim.solver.run import HISTORY_COLUMNS
@@ -112,6 +113,48 @@ def test_partition_independent_rolling(comm):
         assert a.QV == pytest.approx(b.QV, rel=1e-7)
         assert a.QH == pytest.approx(b.QH, abs=1e-7 * abs(b.QV))
         assert a.rotation == pytest.approx(b.rotation, rel=1e-7, abs=1e-12)
+
+
+def _rolled(comm, material, relaxation_length: float) -> RollingStep:
+    """mu = 0.8 on the tiny block: pressed to 0.01 d, rolled 0.1 d at that sinkage; the last step."""
+    roll = WheelRolling(_tiny(comm), CylinderWheel(D, B, B / 12), material, gamma=GAMMA, friction=0.8,
+                        relaxation_length=relaxation_length)
+    roll.gravity_step()
+    roll.press(0.01 * D)
+    roll.roll(0.1 * D, 0.01 * D)
+    assert roll.problem.relaxation == math.inf          # rate-independent again after the move
+    return roll.steps[-1]
+
+
+def test_relaxation_converges_to_rate_independent_rolling(comm):
+    """Duvaut-Lions regularisation on the (associated) clay: the overstress raises Q_V in
+    proportion to the relaxation length (first order, 0.7-1.3), by about 3 % at 1 mm."""
+    qv = {L: _rolled(comm, CLAY, L).QV for L in (0.0, 1e-3, 2e-3, 4e-3)}
+    bias = np.array([qv[L] - qv[0.0] for L in (1e-3, 2e-3, 4e-3)])
+    assert np.all(bias > 0), qv
+    order = np.polyfit(np.log([1.0, 2.0, 4.0]), np.log(bias), 1)[0]
+    assert 0.7 < order < 1.3, (qv, order)
+    assert bias[0] < 0.05 * qv[0.0], qv
+
+
+def test_relaxation_lets_non_associated_sand_roll(comm, tmp_mpi_path):
+    """Dense sand with non-associated flow (layered case 13: phi_dp = 61.6 deg, psi = 0): the
+    rate-independent press fails cleanly (near-singular tangent) and the summary names the remedy;
+    with relaxation lengths of 1 and 2 mm the wheel is pressed and rolls to the end, and Q_V changes
+    by less than 2 % between them."""
+    scene = parse_scene({"wheel": {"diameter": D, "width": B, "friction": 0.8},
+                         "soil": {"gamma": GAMMA, "layers": [{"model": "drucker-prager", "E": 40e6, "nu": 0.35,
+                                                              "phi_dp": 61.6, "c_dp": 18.5e3}]},
+                         "loading": {"protocol": "rolling-continuous", "max_sinkage": 0.01 * D, "travel": 0.1 * D},
+                         "model": {"accuracy": "fast"}})
+    summary = run_rolling(scene, tmp_mpi_path, comm, progress=False, write_fields=False, block=BLOCK,
+                          initial_sinkage=0.01 * D)
+    assert summary["status"] == "failed" and "relaxation_length" in summary["reason"], summary["reason"]
+    sand = DruckerPrager(E=40e6, nu=0.35, phi_dp=math.radians(61.6), c_dp=18.5e3, dilation=0.0)
+    one, two = (_rolled(comm, sand, L) for L in (1e-3, 2e-3))
+    for st in (one, two):
+        assert st.travel == pytest.approx(0.1 * D) and st.sinkage == pytest.approx(0.01 * D)
+    assert 0 < two.QV / one.QV - 1 < 0.02, (one.QV, two.QV)
 
 
 def test_other_protocols_refused(comm, tmp_mpi_path):

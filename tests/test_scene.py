@@ -41,6 +41,7 @@ def test_examples_load():
     assert rolling.soil.layers[0].thickness == pytest.approx(0.61) and rolling.soil.layers[-1].thickness is None
     assert rolling.loading.load == 133.5e3 and rolling.model.accuracy == "fast"
     assert rolling.model.volumetric_strain == "pointwise"           # the rolling protocols' default
+    assert rolling.model.relaxation_length == pytest.approx(1e-3)    # the non-associated sand needs it
 
 
 def test_si_conversion_and_defaults():
@@ -56,6 +57,10 @@ def test_si_conversion_and_defaults():
     assert scene.model.volumetric_strain == "cell-average"          # indentation: B-bar by default
     assert parse_scene(with_change("model.volumetric_strain", "pointwise")).model.volumetric_strain == "pointwise"
     assert scene.loading.max_sinkage == pytest.approx(0.1524)
+    assert scene.model.relaxation_length == 0                      # rate-independent unless asked for
+    rolling = with_change("loading", {"protocol": "rolling-continuous", "max_sinkage": "1 in", "travel": "3 m"})
+    rolling["model"] = {"relaxation_length": "1 mm"}
+    assert parse_scene(rolling).model.relaxation_length == pytest.approx(1e-3)
     assert scene.to_dict()["soil"]["layers"][0]["phi_dp"] == pytest.approx(27.5)
 
 
@@ -81,6 +86,8 @@ def test_si_conversion_and_defaults():
     ("model.kinematics", "total-lagrangian", "model.kinematics"),
     ("model.linear_solver", "cholesky", "model.linear_solver"),
     ("model.volumetric_strain", "mean", "model.volumetric_strain"),
+    ("model.relaxation_length", "-1 mm", "model.relaxation_length"),
+    ("model.relaxation_length", "1 mm", "model.relaxation_length"),     # indentation: rolling only
 ])
 def test_bad_scene_one_line_exit_2(tmp_path, capsys, path, value, field):
     scene = tmp_path / "scene.toml"

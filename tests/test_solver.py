@@ -14,7 +14,7 @@ from mpi4py import MPI
 
 from rollsim.solver import (APEX, ELASTIC, PLASTIC, DruckerPrager, VonMises, dp_to_mc, elastic_stiffness,
                             invariants, mc_to_dp, return_map, von_mises_from_tresca, yield_function)
-from rollsim.solver.return_map import mandel_to_tensor
+from rollsim.solver.return_map import duvaut_lions, mandel_to_tensor
 
 E, NU = 50e6, 0.3
 C = 100e3
@@ -181,6 +181,87 @@ def test_consistent_tangent_matches_finite_differences(name, ncomp):
     if mat.tan_psi != mat.tan_phi:   # non-associated: the algorithmic tangent is non-symmetric
         T = res.tangent[res.state == PLASTIC]
         assert np.abs(T - T.transpose(0, 2, 1)).max() > 1e-3 * Dn
+
+
+def _shear_path(mat, gamma_rate: float, eta: float, dt: float, t_end: float):
+    """Simple shear at the rate ``gamma_rate`` with Duvaut-Lions (relaxation time ``eta``) by
+    backward-Euler steps ``dt``; returns the times and the shear stresses tau_xy."""
+    sig, times, taus = np.zeros((1, 6)), [], []
+    deps = np.zeros((1, 6))
+    deps[0, 3] = math.sqrt(2.0) * gamma_rate * dt / 2.0       # Mandel: sqrt2 * eps_xy, eps_xy = gamma / 2
+    D = elastic_stiffness(mat, 6)
+    for k in range(1, int(round(t_end / dt)) + 1):
+        res = return_map(mat, sig, deps)
+        duvaut_lions(res, sig + deps @ D.T, D, dt / eta)
+        sig = res.sigma
+        times.append(k * dt)
+        taus.append(sig[0, 3] / math.sqrt(2.0))
+    return np.array(times), np.array(taus)
+
+
+def test_duvaut_lions_simple_shear_matches_the_closed_form():
+    """Duvaut-Lions under simple shear at a constant rate: after yield at t_y, exactly
+    tau = tau_y + G gamma_rate eta (1 - exp(-(t - t_y) / eta)); backward Euler converges to it at
+    first order in the step."""
+    mat = VonMises(E, NU, 2e5)
+    G, tau_y = mat.shear_modulus, 2e5 / math.sqrt(3.0)
+    rate, eta = 1e-3, 1.0
+    t_y = tau_y / (G * rate)
+    t_end = t_y + 3 * eta
+    errors = []
+    for n in (20, 40, 80):                  # steps per relaxation time
+        dt = eta / n
+        t, tau = _shear_path(mat, rate, eta, dt, t_end)
+        exact = np.where(t <= t_y, G * rate * t, tau_y + G * rate * eta * (1 - np.exp(-(t - t_y) / eta)))
+        errors.append(np.abs(tau - exact).max() / (G * rate * eta))
+    assert errors[-1] < 0.02, errors
+    order = np.polyfit(np.log([20, 40, 80]), np.log(errors), 1)[0]
+    assert -1.2 < order < -0.8, (errors, order)
+    # the steady overstress: G gamma_rate eta (sqrt3 of it in q), the rate-independent limit eta -> 0
+    _, tau_fast = _shear_path(mat, rate, 1e-6 * eta, eta / 20, t_end)
+    assert tau_fast[-1] == pytest.approx(tau_y, rel=1e-6)
+
+
+@pytest.mark.parametrize("name", ["dp_nonassoc", "dp_c0_psi0"])
+def test_duvaut_lions_limits_and_consistent_tangent(name):
+    mat = materials()[name]
+    sig_n, deps = random_states(6, n=300, seed=3, strain=2e-2)
+    D = elastic_stiffness(mat, 6)
+    trial = sig_n + deps @ D.T
+    inviscid = return_map(mat, sig_n, deps)
+    for r in (math.inf, 0.0):
+        res = return_map(mat, sig_n, deps)
+        duvaut_lions(res, trial, D, r)
+        if math.isinf(r):
+            assert np.array_equal(res.sigma, inviscid.sigma) and np.array_equal(res.tangent, inviscid.tangent)
+        else:
+            assert np.allclose(res.sigma, trial, rtol=0, atol=1e-9 * np.abs(trial).max())
+            assert np.allclose(res.tangent, D) and not np.any(res.deps_p)
+    r, h = 0.7, 1e-9
+
+    def relaxed(de):
+        res = return_map(mat, sig_n, de)
+        duvaut_lions(res, sig_n + de @ D.T, D, r)
+        return res
+
+    res = relaxed(deps)
+    C_fd = np.empty_like(res.tangent)
+    same = np.ones(len(deps), dtype=bool)
+    for j in range(6):
+        dp, dm = deps.copy(), deps.copy()
+        dp[:, j] += h
+        dm[:, j] -= h
+        rp, rm = relaxed(dp), relaxed(dm)
+        C_fd[:, :, j] = (rp.sigma - rm.sigma) / (2 * h)
+        same &= (rp.state == res.state) & (rm.state == res.state)
+    err = np.linalg.norm(C_fd - res.tangent, axis=(1, 2)) / np.linalg.norm(D)
+    assert same.mean() > 0.95 and set(res.state[same].tolist()) >= {ELASTIC, PLASTIC}
+    assert err[same].max() < 1e-6, err[same].max()
+    # between the two limits: the stress is the trial one moved w = r / (1 + r) of the way to the return
+    w = r / (1 + r)
+    assert np.allclose(res.sigma, trial + w * (inviscid.sigma - trial), rtol=0, atol=1e-9 * np.abs(trial).max())
+    with pytest.raises(ValueError, match="relaxation"):
+        duvaut_lions(return_map(mat, sig_n, deps), trial, D, -1.0)
 
 
 # ----------------------------------------------------------------------------- FE: Prandtl footing
