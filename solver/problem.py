@@ -94,6 +94,15 @@ _SQ2 = np.sqrt(2.0)
 
 #: ``NewtonReport.reason`` when PETSc raised inside SNES (the linear solver has been re-created)
 REASON_PETSC_ERROR = -100
+#: ``NewtonReport.reason`` when the return map failed at some quadrature point while evaluating
+#: the tangent (in a residual evaluation it makes the residual NaN: ``DIVERGED_FNORM_NAN``)
+REASON_RETURN_MAP = -101
+
+
+class ReturnMapError(RuntimeError):
+    """The return map failed at a quadrature point on some rank; raised on every rank, so a
+    Newton solve fails on all ranks together (the stepper cuts the step) instead of one rank
+    raising while the others wait in a collective operation."""
 
 
 def _first_line(err, limit: int = 200) -> str:
@@ -454,11 +463,30 @@ class PlasticityProblem:
 
     # ------------------------------------------------------------------ constitutive update
     def constitutive_update(self, tangent: bool = True):
-        """Strain increment at the quadrature points of ``u - u_n`` -> stress (and tangent)."""
+        """Strain increment at the quadrature points of ``u - u_n`` -> stress (and tangent).
+        Collective: a return map failing on any rank raises :class:`ReturnMapError` on all."""
         t0 = time.perf_counter()
         compat.evaluate_into(self._deps_expr, self._deps_q)
         nc = self.ncomp
         sig_n, deps = self._owned(self.sigma_n, nc), self._owned(self._deps_q, nc)
+        error = None
+        try:
+            res = self._return_map(sig_n, deps, tangent)
+        except (RuntimeError, ArithmeticError, np.linalg.LinAlgError) as err:
+            error, res = err, None
+        if self.comm.allreduce(error is not None, op=MPI.LOR):
+            raise ReturnMapError(f"return map failed: {_first_line(error) if error else 'on another rank'}")
+        self._set_owned(self.sigma, res.sigma)
+        if tangent:
+            self._set_owned(self.tangent, res.tangent.reshape(self.n_qp, nc * nc))
+        self._deps_p = res.deps_p
+        self.state = res.state
+        self.timings["return_map"] += time.perf_counter() - t0
+        return res
+
+    def _return_map(self, sig_n: np.ndarray, deps: np.ndarray, tangent: bool) -> ReturnResult:
+        """The return map of every material group (and the Duvaut-Lions step when it is on)."""
+        nc = self.ncomp
         if len(self._groups) == 1:
             res = return_map(self.material, sig_n, deps, tangent=tangent)
         else:
@@ -472,12 +500,6 @@ class PlasticityProblem:
                     res.tangent[qp] = r.tangent
         if math.isfinite(self.relaxation):
             self._relax(res, sig_n, deps)
-        self._set_owned(self.sigma, res.sigma)
-        if tangent:
-            self._set_owned(self.tangent, res.tangent.reshape(self.n_qp, nc * nc))
-        self._deps_p = res.deps_p
-        self.state = res.state
-        self.timings["return_map"] += time.perf_counter() - t0
         return res
 
     def _relax(self, res: ReturnResult, sig_n: np.ndarray, deps: np.ndarray) -> None:
@@ -531,7 +553,12 @@ class PlasticityProblem:
         t0 = time.perf_counter()
         x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
         self._load_x(x)
-        self.constitutive_update(tangent=True)
+        try:
+            self.constitutive_update(tangent=True)
+        except ReturnMapError as err:       # on all ranks: a NaN residual ends the solve
+            log.info("%s; the residual is set to NaN", err)
+            b.set(np.nan)
+            return
         x.copy(self._x_last)
         with b.localForm() as b_local:
             b_local.set(0.0)
@@ -601,6 +628,10 @@ class PlasticityProblem:
                         code, self.snes.getIterationNumber(), _first_line(err))
             log.debug("SNES PETSc error traceback:\n%s", err)
             reason = REASON_PETSC_ERROR
+            self.reset_linear_solver()
+        except ReturnMapError as err:       # raised in the tangent's evaluation, on all ranks
+            log.info("%s (tangent)", err)
+            reason = REASON_RETURN_MAP
             self.reset_linear_solver()
         if reason == PETSc.SNES.ConvergedReason.DIVERGED_LINEAR_SOLVE:
             # a failed MUMPS factorisation (e.g. zero pivots from apex points) leaves the factor in

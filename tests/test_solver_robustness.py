@@ -261,6 +261,34 @@ def test_solve_increment_recovers_after_linear_solver_failure(comm):
     assert rep.converged and rep.iterations <= 2
 
 
+def test_return_map_failure_on_one_rank_fails_the_solve_on_all(comm):
+    """A return map that raises on rank 0 only (the smoothed Mohr-Coulomb's local Newton did, under
+    the rolling wheel on 2 ranks, and the other rank waited in a collective for ever): the solve
+    fails on every rank with a NaN residual, the state is restored, and the next solve converges."""
+    from rollsim.solver import StripFooting, strip_footing_mesh
+    fo = StripFooting(strip_footing_mesh(comm, B, 2), von_mises_from_tresca(E, NU, C))
+    pb = fo.problem
+    fo.settlement.value = -1e-3
+    orig = pb._return_map
+    calls = []
+
+    def failing(*args):
+        calls.append(1)
+        if comm.rank == 0 and len(calls) == 2:         # inside Newton, after the first residual
+            raise RuntimeError("local return map did not converge at 1 points")
+        return orig(*args)
+    pb._return_map = failing
+    try:
+        rep = pb.solve_increment()
+    finally:
+        pb._return_map = orig
+    assert not rep.converged and len(calls) >= 2
+    assert comm.allgather(rep.reason) == [rep.reason] * comm.size
+    pb.restore()
+    rep = pb.solve_increment()
+    assert rep.converged
+
+
 def test_petsc_error_in_snes_logs_one_line_and_recovers(comm):
     """A PETSc error raised inside SNES: one WARNING line with the error code (the traceback only
     at DEBUG), reason REASON_PETSC_ERROR, a fresh linear solver, and the next solve converges."""
