@@ -234,8 +234,7 @@ def duvaut_lions(res: ReturnResult, sigma_trial: np.ndarray, D: np.ndarray, rela
     if math.isinf(relaxation):
         return
     w = relaxation / (1.0 + relaxation)
-    sig_tr = sigma_trial
-    res.sigma[sel] = sig_tr + w * (res.sigma[sel] - sig_tr)
+    res.sigma[sel] = sigma_trial + w * (res.sigma[sel] - sigma_trial)
     if res.tangent is not None:
         res.tangent[sel] = (1.0 - w) * D + w * res.tangent[sel]
     res.deps_p[sel] *= w
