@@ -89,7 +89,8 @@ class ModelSpec:
     kinematics: str = "small-strain"   # or "updated-lagrangian" (incremental large deformation)
     linear_solver: str = "auto"        # or "direct" (MUMPS LU), "iterative" (GMRES + AMG)
     volumetric_strain: str = DEFAULT_VOLUMETRIC_STRAIN   # parse_scene: default_volumetric_strain(protocol)
-    relaxation_length: float = 0.0     # m of travel; > 0: Duvaut-Lions regularisation of rolling (0: off)
+    relaxation_length: float = 0.0     # m of the wheel's path (travel; sinkage in indentation); > 0: Duvaut-Lions
+    regularising_cohesion: float = 1.0e3   # Pa put in place of c = 0 (purely frictional layers); 0: c stays 0
 
 
 def default_volumetric_strain(protocol: str) -> str:
@@ -284,9 +285,14 @@ def parse_scene(data: dict) -> Scene:
                       linear_solver=model_table.choice("linear_solver", LINEAR_SOLVERS, default="auto"),
                       volumetric_strain=model_table.choice("volumetric_strain", VOLUMETRIC_STRAINS,
                                                            default=default_volumetric_strain(loading.protocol)),
-                      relaxation_length=model_table.quantity("relaxation_length", LENGTH, default=0.0, minimum=0.0))
-    if model.relaxation_length > 0 and loading.protocol == "indentation":
-        raise InputError("model.relaxation_length", "applies to the rolling protocols only")
+                      relaxation_length=model_table.quantity("relaxation_length", LENGTH, default=0.0, minimum=0.0),
+                      regularising_cohesion=model_table.quantity("regularising_cohesion", PRESSURE, default=1.0e3,
+                                                                 minimum=0.0))
+    if model.regularising_cohesion == 0:
+        for i, layer in enumerate(soil.layers):
+            if layer.model == "mohr-coulomb" and layer.c == 0:
+                raise InputError("model.regularising_cohesion", f"0 needs c > 0 in soil.layers[{i}] (mohr-coulomb: "
+                                 "the smoothed surface's rounded tip needs a cohesion); use drucker-prager for c = 0")
     model_table.done()
     top.done()
     return Scene(wheel, soil, loading, model)

@@ -26,6 +26,7 @@ Protocols
 from __future__ import annotations
 
 import json
+import math
 import os
 import pathlib
 import time
@@ -114,14 +115,21 @@ class WheelIndentation:
     ``petsc_options``: passed to the SNES; ``kinematics``: ``"small-strain"`` or
     ``"updated-lagrangian"``; ``linear_solver``: ``"auto"``, ``"direct"`` or ``"iterative"``;
     ``volumetric_strain``: ``"pointwise"`` or ``"cell-average"`` (B-bar) (all three see
-    :class:`~rollsim.solver.problem.PlasticityProblem`).
+    :class:`~rollsim.solver.problem.PlasticityProblem`); ``relaxation_length`` (m, 0: off):
+    Duvaut-Lions regularisation of the soil while the wheel sinks, with the sinkage as
+    pseudo-time: a step that changes the sinkage by ``ds`` has ``r = ds / relaxation_length``
+    (see :func:`~rollsim.solver.return_map.duvaut_lions`; the gravity step stays rate-independent).
     """
 
     def __init__(self, tagged, wheel, material, *, gamma: float = 0.0, K0: float | None = None,
                  friction: float = 0.0, penalty: float | None = None, h: float | None = None,
                  petsc_options: dict | None = None, degree: int = 2, contact_ids=None,
                  quadrature_degree: int = 6, smoothing: float = 0.0, kinematics: str = "small-strain",
-                 linear_solver: str = "auto", volumetric_strain: str = DEFAULT_VOLUMETRIC_STRAIN):
+                 linear_solver: str = "auto", volumetric_strain: str = DEFAULT_VOLUMETRIC_STRAIN,
+                 relaxation_length: float = 0.0):
+        if not relaxation_length >= 0:
+            raise ValueError(f"relaxation_length must be >= 0 (m), got {relaxation_length}")
+        self.relaxation_length = float(relaxation_length)
         self.tagged = tagged
         msh = tagged.mesh
         self.comm = msh.comm
@@ -172,6 +180,11 @@ class WheelIndentation:
 
     def set_sinkage(self, s: float) -> None:
         self.contact.set_pose(centre=self._centre(s))
+
+    def _sink_to(self, s: float) -> None:
+        """Pose of the next solve: sinkage ``s`` (m), Duvaut-Lions pseudo-time from the converged one."""
+        self.problem.relax_over(abs(s - self.sinkage), self.relaxation_length)
+        self.set_sinkage(s)
 
     def forces(self) -> dict:
         """Whole-wheel forces at the current displacement."""
@@ -307,7 +320,7 @@ class WheelIndentation:
 
             def set_load(t, s0=s0, span=span):
                 self._attempts += 1
-                self.set_sinkage(s0 + span * t)
+                self._sink_to(s0 + span * t)
 
             try:
                 hist = solve_load_path(self.problem, set_load, control, on_t)
@@ -315,6 +328,8 @@ class WheelIndentation:
                 self._absorb(err.history, n_before)
                 self.set_sinkage(self.sinkage)
                 raise
+            finally:
+                self.problem.relaxation = math.inf
             self._absorb(hist, n_before)
         return self.steps
 
@@ -359,7 +374,12 @@ class WheelIndentation:
         converged step) or ``failed`` (Newton diverged)."""
         if not load > 0:
             raise ValueError(f"load must be > 0, got {load}")
-        control = control or DEFAULT_STEP_CONTROL
+        try:
+            return self._push_to_load(load, sinkage_limit, control or DEFAULT_STEP_CONTROL, rtol, max_trials)
+        finally:
+            self.problem.relaxation = math.inf
+
+    def _push_to_load(self, load, sinkage_limit, control, rtol, max_trials) -> LoadControlResult:
         pb = self.problem
         best = {"QV": self.forces()["QV"] if self.steps else 0.0, "s": self.sinkage}
         saved = {"lo": self.save_state(), "s_lo": self.sinkage, "Q_lo": best["QV"]}
@@ -387,7 +407,7 @@ class WheelIndentation:
         try:
             def set_load(t):
                 self._attempts += 1
-                self.set_sinkage(s0 + (sinkage_limit - s0) * t)
+                self._sink_to(s0 + (sinkage_limit - s0) * t)
 
             hist = solve_load_path(pb, set_load, control, on_t)
             self._absorb(hist, n_before)
@@ -418,7 +438,7 @@ class WheelIndentation:
         for trials in range(1, max_trials + 1):
             s = s_lo + (load - Q_lo) * (s_hi - s_lo) / (Q_hi - Q_lo)
             s = min(max(s, s_lo + 1e-3 * (s_hi - s_lo)), s_hi - 1e-3 * (s_hi - s_lo))
-            self.set_sinkage(s)
+            self._sink_to(s)
             rep = pb.solve_increment()
             if not rep.converged:
                 pb.restore()

@@ -44,16 +44,17 @@ __all__ = ["VonMises", "DruckerPrager", "mc_to_dp", "dp_to_mc", "von_mises_from_
 
 #: Regularising ("numerical") cohesion, Pa, put in place of c = 0 by :func:`regularised_cohesion`
 #: (and by ``solver.run.layer_material`` for scene layers).  It is NOT negligible for a wheel: near
-#: the surface the frictional strength gamma z tan(phi) is itself of order 1 kPa.  Measured
-#: (README_c0.md, 3D wheel, phi = 40 deg, psi = 0, fast mesh): Q_V at s/d = 0.02 is 18.1 / 21.9 /
-#: 25.3 / 31.1 kN for c_reg = 0 / 0.5 / 1 / 2 kPa, and halving c_reg from 1 kPa lowers Q_V by 9 % /
-#: 17 % at s/d = 0.05 / 0.1; c = 0 exactly runs too, about 2.5x slower.
+#: the surface the frictional strength gamma z tan(phi) is itself of order 1 kPa.  Measured (README,
+#: "Purely frictional soil (c = 0) under the wheel"; 3D wheel, phi = 40 deg, psi = 0, fast mesh):
+#: against c = 0 exactly, 1 kPa raises Q_V at s/d = 0.02 / 0.05 / 0.1 by 52 / 39 / 60 % (pointwise)
+#: and 54 / 61 / 97 % (B-bar).  c = 0 exactly runs too (scene: ``[model] regularising_cohesion =
+#: 0``), 2-3x slower, and stalled pointwise at phi = 45 deg.
 C_REG_DEFAULT = 1.0e3
 
 #: Above this Mohr-Coulomb angle (asin 0.6 = 36.87 deg) the compression-matched Drucker-Prager cone
 #: has tan(phi_dp) >= 1.5: it has no extension-matched Mohr-Coulomb angle, i.e. it is stronger in
 #: triaxial extension than any Mohr-Coulomb material.  With psi = 0 such cones stalled the 3D wheel
-#: indentation at s/d < 0.002 (README_c0.md); prefer the plane-strain match there.
+#: indentation at s/d < 0.002 (README, "Purely frictional soil"); prefer the plane-strain match there.
 PHI_COMPRESSION_MATCH_LIMIT = math.asin(0.6)
 
 MATCHINGS = ("compression", "extension", "plane_strain")

@@ -502,6 +502,13 @@ class PlasticityProblem:
             self._relax(res, sig_n, deps)
         return res
 
+    def relax_over(self, path: float, relaxation_length: float) -> None:
+        """Set :attr:`relaxation` for a step that moves the load along ``path`` (m) with the
+        Duvaut-Lions ``relaxation_length`` (m) as relaxation time: ``r = path / relaxation_length``;
+        ``relaxation_length`` 0 leaves the problem as it is (rate-independent unless set)."""
+        if relaxation_length > 0:
+            self.relaxation = path / relaxation_length
+
     def _relax(self, res: ReturnResult, sig_n: np.ndarray, deps: np.ndarray) -> None:
         """Duvaut-Lions step (:func:`~rollsim.solver.return_map.duvaut_lions`) with :attr:`relaxation`."""
         for mat, qp in self._groups:        # qp: the group's owned quadrature points

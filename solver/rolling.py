@@ -278,7 +278,7 @@ class WheelRolling:
         def set_load(t):
             self._attempts += 1
             s = s_from + (s_to - s_from) * t
-            self._relax_over(abs(s - self.sinkage))
+            self.problem.relax_over(abs(s - self.sinkage), self.relaxation_length)
             self.contact.set_pose(centre=self._centre(x, s), angle=th)
 
         def on_t(t):
@@ -321,7 +321,7 @@ class WheelRolling:
             self._attempts += 1
             x_prev = self.position
             self._step_dx = (x0 + t) - x_prev
-            self._relax_over(abs(self._step_dx))
+            self.problem.relax_over(abs(self._step_dx), self.relaxation_length)
             s = sink(t) if self.target_load is None else self.sinkage + self._sink_rate * self._step_dx
             self.contact.set_pose(centre=self._centre(x0 + t, s),
                                   angle=self.rotation + (1.0 - self.slip_ratio) * self._step_dx / self.R)
@@ -465,11 +465,6 @@ class WheelRolling:
     _last_dth = 0.0
 
     # ------------------------------------------------------------------ internals
-    def _relax_over(self, distance: float) -> None:
-        """Duvaut-Lions relaxation of the step in which the wheel moves ``distance`` (m)."""
-        if self.relaxation_length > 0:
-            self.problem.relaxation = distance / self.relaxation_length
-
     def _run(self, set_load, control, on_t) -> None:
         pb = _TorqueBalancedProblem(self)
         try:
@@ -678,8 +673,8 @@ def run_rolling(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_
     ``block``: keywords of :func:`rolling_mesh` (length/half_width/depth in d).  A signal
     (SIGINT/SIGTERM/SIGUSR1) stops the run after the current step with ``status = "interrupted"``.
     """
-    from .run import (_atomic_write, _history_csv, finish_run, history_row, model_summary, run_protected,
-                      run_setup, scene_penalty)
+    from .run import (_atomic_write, _history_csv, finish_run, history_row, model_summary, relaxation_hint,
+                      run_protected, run_setup, scene_penalty)
 
     protocol = scene.loading.protocol
     if protocol not in ("rolling-continuous", "rolling-constant-load"):
@@ -759,10 +754,8 @@ def run_rolling(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_
     status, reason, diagnostics = run_protected(
         rolling, comm, lambda: {"last_converged_travel_m": roll.position - roll.x_start,
                                 "last_converged_sinkage_m": roll.sinkage, "step_cuts_total": roll.cuts})
-    if status == "failed" and roll.relaxation_length == 0 and _non_associated(materials):
-        reason += ("; the soil's flow is non-associated (dilation below the friction angle), whose Newton tangent "
-                   "can be near-singular: [model] relaxation_length = \"1 mm\" (Duvaut-Lions regularisation, "
-                   "README \"Non-associated sand\") may let the run converge")
+    if status == "failed":
+        reason += relaxation_hint(materials, scene)
 
     rut = None
     if lifted:
@@ -807,8 +800,7 @@ def run_rolling(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_
         "moment_Nm": last.get("moment_Nm", 0.0),
         "rotation_rad": roll.rotation,
         "max_QV_N": max((row["QV_N"] for row in rows), default=0.0),
-        "model": {**model_summary(scene, roll), "x_start_m": roll.x_start, "moment_rtol": roll.moment_rtol,
-                  "relaxation_length_m": roll.relaxation_length},
+        "model": {**model_summary(scene, roll), "x_start_m": roll.x_start, "moment_rtol": roll.moment_rtol},
         "files": {"history": "history.csv", "fields": ["fields/fields.xdmf", "fields/deformed.xdmf"]
                   if write_fields else [], "plot": "force_sinkage.png"},
     }
@@ -836,12 +828,6 @@ def run_rolling(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_
         except Exception as err:  # noqa: BLE001
             log.warning("travel plot failed: %s", err)
     return finish_run(out, rows, scene, summary, comm, progress=progress)
-
-
-def _non_associated(materials) -> bool:
-    """Any frictional material whose dilation is below its friction angle."""
-    mats = materials.values() if isinstance(materials, dict) else [materials]
-    return any(getattr(m, "tan_phi", 0.0) > getattr(m, "tan_psi", 0.0) * (1 + 1e-12) for m in mats)
 
 
 #: stiff start zone of the constant-load protocol, x / d (report: 0.75 d, wheel starting at 0.4 d)

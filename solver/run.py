@@ -46,7 +46,7 @@ REPORT_S_OVER_D = (0.01, 0.02, 0.03, 0.05, 0.08, 0.1)
 _MATCH = {"compression": "compression", "extension": "extension", "plane-strain": "plane_strain"}
 
 
-def layer_material(layer, index: int = 0):
+def layer_material(layer, index: int = 0, *, c_reg: float | None = None):
     """``LayerSpec`` -> ``VonMises`` / ``DruckerPrager`` (SI, radians).
 
     von Mises: yield stress ``q_y = c_dp`` if given, else from the cohesion ``c`` by the layer's
@@ -56,23 +56,31 @@ def layer_material(layer, index: int = 0):
     ``solver/smoothed_mc.py`` when available, else a ``ValueError`` naming the layer.
 
     Purely frictional layers (``c = 0`` or ``c_dp = 0`` with a friction angle > 0) get the
-    regularising cohesion ``materials.C_REG_DEFAULT`` (1 kPa) in its place, with a warning in the
-    log (README_c0.md: the measured effect on Q_V and why).
+    regularising cohesion ``c_reg`` (Pa; default ``materials.C_REG_DEFAULT``, 1 kPa; the scene's
+    ``[model] regularising_cohesion``) in its place, with a warning in the log (README, "Purely
+    frictional soil (c = 0) under the wheel": the measured effect on Q_V); ``c_reg = 0`` keeps
+    c = 0 (not for mohr-coulomb, whose rounded tip needs c > 0: ``ValueError`` naming the layer).
     """
     from .materials import (C_REG_DEFAULT, PHI_COMPRESSION_MATCH_LIMIT, DruckerPrager, VonMises, mc_to_dp,
                             regularised_cohesion)
     key = f"soil.layers[{index}]"
+    c_reg = C_REG_DEFAULT if c_reg is None else float(c_reg)
     c, c_dp = layer.c, layer.c_dp
     if layer.model in ("drucker-prager", "mohr-coulomb"):
         angle = layer.phi_dp if (layer.model == "drucker-prager" and layer.phi_dp is not None) else layer.phi
         reg = False
-        if angle is not None and layer.model == "drucker-prager" and layer.phi_dp is not None and c_dp is not None:
-            c_dp, reg = regularised_cohesion(c_dp, angle)
+        if c_reg == 0:
+            if layer.model == "mohr-coulomb" and c == 0:
+                raise ValueError(f"{key}.c: the smoothed Mohr-Coulomb needs c > 0 (its rounded tip); with "
+                                 "model.regularising_cohesion = 0 use drucker-prager for c = 0")
+        elif angle is not None and layer.model == "drucker-prager" and layer.phi_dp is not None and c_dp is not None:
+            c_dp, reg = regularised_cohesion(c_dp, angle, c_reg)
         elif angle is not None and c is not None:
-            c, reg = regularised_cohesion(c, angle)
+            c, reg = regularised_cohesion(c, angle, c_reg)
         if reg:
-            log.warning("%s: c = 0 (purely frictional) -> regularising cohesion %g Pa used (numerical device; "
-                        "it raises Q_V measurably at small sinkage, see README_c0.md)", key, C_REG_DEFAULT)
+            log.warning("%s: c = 0 (purely frictional) -> regularising cohesion %g Pa used (numerical device; it "
+                        "raises Q_V markedly: +60 %% at s/d = 0.1 for 1 kPa, phi = 40 deg; model.regularising_cohesion = 0 keeps "
+                        "c = 0; README, \"Purely frictional soil\")", key, c_reg)
         if (layer.model == "drucker-prager" and layer.phi_dp is None and layer.phi is not None
                 and _MATCH.get(layer.match) == "compression" and layer.phi > PHI_COMPRESSION_MATCH_LIMIT):
             log.warning("%s: compression-matched Drucker-Prager with phi = %.1f deg > 36.87 deg is stronger in "
@@ -98,10 +106,8 @@ def layer_material(layer, index: int = 0):
                      "(use von-mises, drucker-prager or mohr-coulomb)")
 
 
-def regularised_layers(scene) -> dict:
-    """``{"soil.layers[i]": c_reg (Pa)}`` for the purely frictional layers that ``layer_material``
-    gives the regularising cohesion (reported in summary.json: it raises Q_V measurably)."""
-    from .materials import C_REG_DEFAULT
+def frictional_layers(scene) -> dict:
+    """``{"soil.layers[i]": layer}``: the purely frictional layers (c = 0, friction angle > 0)."""
     out = {}
     for i, layer in enumerate(scene.soil.layers):
         if layer.model == "drucker-prager" and layer.phi_dp is not None:
@@ -109,8 +115,16 @@ def regularised_layers(scene) -> dict:
         else:
             c, angle = layer.c, layer.phi
         if layer.model != "von-mises" and c == 0 and angle is not None and angle > 0:
-            out[f"soil.layers[{i}]"] = C_REG_DEFAULT
+            out[f"soil.layers[{i}]"] = layer
     return out
+
+
+def regularised_layers(scene) -> dict:
+    """``{"soil.layers[i]": c_reg (Pa)}`` for the purely frictional layers that ``layer_material``
+    gives the scene's regularising cohesion (reported in summary.json: it raises Q_V markedly);
+    none when ``[model] regularising_cohesion`` is 0."""
+    c_reg = scene.model.regularising_cohesion
+    return {key: c_reg for key in frictional_layers(scene)} if c_reg > 0 else {}
 
 
 #: penalty alpha for scenes with a purely frictional layer (c = 0, regularised): about 3x faster
@@ -120,8 +134,8 @@ FRICTIONAL_PENALTY = 1.0
 
 def scene_penalty(scene, penalty: float | None) -> float | None:
     """The contact penalty alpha for ``scene``: ``penalty`` if given, :data:`FRICTIONAL_PENALTY`
-    when a layer is purely frictional (see :func:`regularised_layers`), else None (the default)."""
-    frictional = regularised_layers(scene)
+    when a layer is purely frictional (see :func:`frictional_layers`), else None (the default)."""
+    frictional = frictional_layers(scene)
     if penalty is not None or not frictional:
         return penalty
     log.info("purely frictional layer(s) %s: contact penalty alpha = %g (pass penalty to override)",
@@ -131,7 +145,8 @@ def scene_penalty(scene, penalty: float | None) -> float | None:
 
 def model_summary(scene, wheel_run) -> dict:
     """The ``model`` entry of ``summary.json`` shared by indentation and rolling runs: symmetry,
-    mesh preset, element degree, kinematics, contact and, when used, the regularising cohesion.
+    mesh preset, element degree, kinematics, contact, the Duvaut-Lions relaxation length and, when
+    used, the regularising cohesion.
     ``wheel_run``: a :class:`WheelIndentation` or :class:`WheelRolling` (``factor``, ``problem``,
     ``contact``)."""
     ct = wheel_run.contact
@@ -141,11 +156,40 @@ def model_summary(scene, wheel_run) -> dict:
              "linear_solver": wheel_run.problem.linear_solver,
              "volumetric_strain": wheel_run.problem.volumetric_strain,
              "contact": {"method": "penalty", "alpha": ct.alpha, "kappa_Pa_per_m": ct.kappa, "h_m": ct.h,
-                         "friction": ct.friction}}
+                         "friction": ct.friction},
+             "relaxation_length_m": wheel_run.relaxation_length}
     regularised = regularised_layers(scene)
     if regularised:
         model["regularising_cohesion_Pa"] = regularised
     return model
+
+
+#: Duvaut-Lions relaxation length the failure hint suggests, by protocol (m of the wheel's path):
+#: rolling 1 mm (sand cases 13-15), indentation 0.01 mm (c = 0, phi = 40 deg: README, "Purely
+#: frictional soil (c = 0) under the wheel")
+SUGGESTED_RELAXATION_LENGTH = {"indentation": "0.01 mm", "rolling": "1 mm"}
+
+
+def non_associated(materials) -> bool:
+    """Any frictional material (``{tag: material}`` or one) whose dilation is below its friction angle."""
+    mats = materials.values() if isinstance(materials, dict) else [materials]
+    return any(getattr(m, "tan_phi", 0.0) > getattr(m, "tan_psi", 0.0) * (1 + 1e-12) for m in mats)
+
+
+def relaxation_hint(materials, scene) -> str:
+    """What to append to a failed run's reason: the Duvaut-Lions remedy when the soil's flow is
+    non-associated and the scene does not regularise it yet, and the regularising cohesion when
+    the scene keeps c = 0; else ""."""
+    hint = ""
+    if scene.model.relaxation_length == 0 and non_associated(materials):
+        length = SUGGESTED_RELAXATION_LENGTH["indentation" if scene.loading.protocol == "indentation" else "rolling"]
+        hint += ("; the soil's flow is non-associated (dilation below the friction angle), whose Newton tangent can "
+                 f"be near-singular: [model] relaxation_length = \"{length}\" (Duvaut-Lions regularisation; its bias "
+                 "is first order in the length, so compare with half of it) may let the run converge")
+    if scene.model.regularising_cohesion == 0 and frictional_layers(scene):
+        hint += ("; c = 0 is kept exactly (model.regularising_cohesion = 0): the default \"1 kPa\" runs more often "
+                 "but raises Q_V markedly (README, \"Purely frictional soil\")")
+    return hint
 
 
 def scene_mesh(scene, comm: MPI.Comm):
@@ -172,7 +216,8 @@ def run_setup(scene, out_dir, comm) -> tuple:
     """(wheel, per-layer materials {layer id: material}, output directory) of a scene run; rank 0
     makes the directory with its ``fields/`` and every rank waits for it."""
     wheel = _wheel(scene.wheel)
-    materials = {k: layer_material(layer, k - 1) for k, layer in enumerate(scene.soil.layers, start=1)}
+    materials = {k: layer_material(layer, k - 1, c_reg=scene.model.regularising_cohesion)
+                 for k, layer in enumerate(scene.soil.layers, start=1)}
     out = pathlib.Path(out_dir)
     if comm.rank == 0:
         (out / "fields").mkdir(parents=True, exist_ok=True)
@@ -288,7 +333,8 @@ def run_scene(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_op
     ind = WheelIndentation(tagged, wheel, mats, gamma=scene.soil.gamma, friction=scene.wheel.friction,
                            petsc_options=petsc_options, penalty=scene_penalty(scene, penalty),
                            kinematics=scene.model.kinematics, linear_solver=scene.model.linear_solver,
-                           volumetric_strain=scene.model.volumetric_strain)
+                           volumetric_strain=scene.model.volumetric_strain,
+                           relaxation_length=scene.model.relaxation_length)
     writer = None
     if write_fields:
         from .fields import FieldWriter
@@ -316,6 +362,8 @@ def run_scene(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_op
 
     status, reason, diagnostics = run_protected(
         indentation, comm, lambda: {"last_converged_sinkage_m": ind.sinkage, "step_cuts_total": ind.cuts})
+    if status == "failed":
+        reason += relaxation_hint(materials, scene)
     if writer is not None:
         try:
             writer.write_deformed()

@@ -15,6 +15,7 @@ from rollsim.solver.run import HISTORY_COLUMNS, layer_material, run_scene
 def _scene(max_sinkage="0.03 m", **layer):
     lay = {"model": "von-mises", "E": "40 MPa", "nu": 0.35, "c_dp": "200 kPa"}
     lay.update(layer)
+    lay = {k: v for k, v in lay.items() if v is not None}
     return parse_scene({"wheel": {"diameter": "1.524 m", "width": "0.4572 m", "friction": 0.8},
                         "soil": {"gamma": "20 kN/m^3", "layers": [lay]},
                         "loading": {"protocol": "indentation", "max_sinkage": max_sinkage},
@@ -61,6 +62,24 @@ def test_cell_average_volumetric_strain_reaches_the_solver(comm, tmp_mpi_path):
     assert forces["cell-average"] < 0.97 * forces["pointwise"], forces
 
 
+def test_c0_indentation_scene_without_regularising_cohesion(comm, tmp_mpi_path):
+    """A c = 0 drucker-prager layer with [model] regularising_cohesion = 0 runs with c = 0 exactly,
+    rate-independent and then with a Duvaut-Lions relaxation length (which ends with the run; its
+    convergence in the length: tests/test_indentation.py); the summary records both settings."""
+    scene = _scene("0.0076 m", model="drucker-prager", c=0, phi=40, match="plane-strain", c_dp=None)
+    q = {}
+    for length in (0.0, 3e-5):
+        sc = dataclasses.replace(scene, model=dataclasses.replace(scene.model, regularising_cohesion=0.0,
+                                                                  relaxation_length=length))
+        summary = run_scene(sc, tmp_mpi_path / f"L{length:g}", comm, progress=False, write_fields=False)
+        assert summary["status"] == "ok", summary.get("reason")
+        model = summary["model"]
+        assert model["relaxation_length_m"] == length and "regularising_cohesion_Pa" not in model
+        assert model["contact"]["alpha"] == 1.0
+        q[length] = summary["QV_N"]
+    assert q[3e-5] > q[0.0] > 0, q          # the regularisation's overstress is positive
+
+
 @pytest.mark.serial
 def test_fields_readable_by_pyvista(tmp_path, comm):
     pv = pytest.importorskip("pyvista")
@@ -94,6 +113,21 @@ def test_divergence_is_reported_not_raised(comm, tmp_mpi_path, monkeypatch):
     if comm.rank == 0:
         s = json.loads((tmp_mpi_path / "summary.json").read_text())
         assert s["status"] == "failed" and "diagnostics" in s
+
+
+def test_failed_c0_run_names_both_remedies(comm, tmp_mpi_path, monkeypatch):
+    """A failed run on a non-associated c = 0 layer kept exactly suggests the relaxation length
+    (indentation: 0.01 mm) and the regularising cohesion; a von Mises soil gets neither."""
+    import rollsim.solver.indentation as ind
+    from rollsim.solver import StepControl
+    monkeypatch.setattr(ind, "DEFAULT_STEP_CONTROL", StepControl(dt=0.1, dt_min=1e-4, max_cuts=0, max_iterations=2))
+    scene = _scene("0.0076 m", model="drucker-prager", c=0, phi=40, match="plane-strain", c_dp=None)
+    scene = dataclasses.replace(scene, model=dataclasses.replace(scene.model, regularising_cohesion=0.0))
+    summary = run_scene(scene, tmp_mpi_path / "c0", comm, progress=False, write_fields=False)
+    assert summary["status"] == "failed"
+    assert 'relaxation_length = "0.01 mm"' in summary["reason"] and "regularising_cohesion" in summary["reason"]
+    summary = run_scene(_scene(), tmp_mpi_path / "vm", comm, progress=False, write_fields=False)
+    assert summary["status"] == "failed" and "relaxation_length" not in summary["reason"]
 
 
 def test_layer_materials_from_scene():

@@ -61,6 +61,9 @@ def test_si_conversion_and_defaults():
     rolling = with_change("loading", {"protocol": "rolling-continuous", "max_sinkage": "1 in", "travel": "3 m"})
     rolling["model"] = {"relaxation_length": "1 mm"}
     assert parse_scene(rolling).model.relaxation_length == pytest.approx(1e-3)
+    assert parse_scene(with_change("model.relaxation_length", "0.01 mm")).model.relaxation_length == pytest.approx(1e-5)
+    assert scene.model.regularising_cohesion == 1e3                 # in place of c = 0; 0 keeps c = 0
+    assert parse_scene(with_change("model.regularising_cohesion", 0)).model.regularising_cohesion == 0
     assert scene.to_dict()["soil"]["layers"][0]["phi_dp"] == pytest.approx(27.5)
 
 
@@ -87,7 +90,8 @@ def test_si_conversion_and_defaults():
     ("model.linear_solver", "cholesky", "model.linear_solver"),
     ("model.volumetric_strain", "mean", "model.volumetric_strain"),
     ("model.relaxation_length", "-1 mm", "model.relaxation_length"),
-    ("model.relaxation_length", "1 mm", "model.relaxation_length"),     # indentation: rolling only
+    ("model.relaxation_length", "1 kg", "model.relaxation_length"),
+    ("model.regularising_cohesion", "-1 kPa", "model.regularising_cohesion"),
 ])
 def test_bad_scene_one_line_exit_2(tmp_path, capsys, path, value, field):
     scene = tmp_path / "scene.toml"

@@ -283,6 +283,7 @@ def test_regularised_cohesion_and_scene_layers():
 
     from rollsim.scene import parse_scene
     from rollsim.solver.materials import C_REG_DEFAULT, regularised_cohesion
+    from rollsim.units import InputError
     from rollsim.solver.run import layer_material
     assert regularised_cohesion(0.0, 40 * DEG) == (C_REG_DEFAULT, True)
     assert regularised_cohesion(5e3, 40 * DEG) == (5e3, False)
@@ -320,3 +321,17 @@ def test_regularised_cohesion_and_scene_layers():
     cohesive = parse_scene({"wheel": {"diameter": 1.0, "width": 0.3}, "soil": {"gamma": 20e3, "layers": layers[3:]},
                             "loading": {"protocol": "indentation", "max_sinkage": 0.1}})
     assert scene_penalty(cohesive, None) is None
+    # [model] regularising_cohesion: another value, or 0 (c stays 0; still alpha = 1); the smoothed
+    # Mohr-Coulomb's rounded tip needs c > 0, so 0 is refused for its c = 0 layer, naming the key
+    scene = {"wheel": {"diameter": 1.0, "width": 0.3}, "soil": {"gamma": 20e3, "layers": layers[:2] + layers[3:]},
+             "loading": {"protocol": "indentation", "max_sinkage": 0.1}, "model": {"regularising_cohesion": "0.5 kPa"}}
+    assert regularised_layers(parse_scene(scene)) == {f"soil.layers[{i}]": 500.0 for i in range(2)}
+    scene["model"]["regularising_cohesion"] = 0
+    exact = parse_scene(scene)
+    assert regularised_layers(exact) == {} and scene_penalty(exact, None) == FRICTIONAL_PENALTY
+    assert layer_material(exact.soil.layers[0], 0, c_reg=0.0).c_dp == 0.0
+    with pytest.raises(ValueError, match=r"soil.layers\[2\].c"):
+        layer_material(sc.soil.layers[2], 2, c_reg=0.0)
+    scene["soil"]["layers"] = layers
+    with pytest.raises(InputError, match="model.regularising_cohesion"):
+        parse_scene(scene)
