@@ -33,6 +33,9 @@ LINEAR_SOLVERS = ("auto", "direct", "iterative")
 #: :func:`default_volumetric_strain` (README, "Volumetric locking").
 VOLUMETRIC_STRAINS = ("cell-average", "pointwise")
 DEFAULT_VOLUMETRIC_STRAIN = "pointwise"
+#: Pa put in place of c = 0 in purely frictional layers (``[model] regularising_cohesion``; the
+#: solver's ``materials.C_REG_DEFAULT``); 0 keeps c = 0
+DEFAULT_REGULARISING_COHESION = 1.0e3
 TREAD_THICKNESS_RATIO = 0.046  # t_tread / d of the report's tire
 
 
@@ -90,7 +93,7 @@ class ModelSpec:
     linear_solver: str = "auto"        # or "direct" (MUMPS LU), "iterative" (GMRES + AMG)
     volumetric_strain: str = DEFAULT_VOLUMETRIC_STRAIN   # parse_scene: default_volumetric_strain(protocol)
     relaxation_length: float = 0.0     # m of the wheel's path (travel; sinkage in indentation); > 0: Duvaut-Lions
-    regularising_cohesion: float = 1.0e3   # Pa put in place of c = 0 (purely frictional layers); 0: c stays 0
+    regularising_cohesion: float = DEFAULT_REGULARISING_COHESION   # Pa in place of c = 0; 0: c stays 0
 
 
 def default_volumetric_strain(protocol: str) -> str:
@@ -286,8 +289,8 @@ def parse_scene(data: dict) -> Scene:
                       volumetric_strain=model_table.choice("volumetric_strain", VOLUMETRIC_STRAINS,
                                                            default=default_volumetric_strain(loading.protocol)),
                       relaxation_length=model_table.quantity("relaxation_length", LENGTH, default=0.0, minimum=0.0),
-                      regularising_cohesion=model_table.quantity("regularising_cohesion", PRESSURE, default=1.0e3,
-                                                                 minimum=0.0))
+                      regularising_cohesion=model_table.quantity("regularising_cohesion", PRESSURE,
+                                                                 default=DEFAULT_REGULARISING_COHESION, minimum=0.0))
     if model.regularising_cohesion == 0:
         for i, layer in enumerate(soil.layers):
             if layer.model == "mohr-coulomb" and layer.c == 0:

@@ -39,6 +39,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from rollsim.scene import DEFAULT_REGULARISING_COHESION
+
 __all__ = ["VonMises", "DruckerPrager", "mc_to_dp", "dp_to_mc", "von_mises_from_tresca", "jaky_k0",
            "admissible_k0", "C_REG_DEFAULT", "PHI_COMPRESSION_MATCH_LIMIT", "regularised_cohesion"]
 
@@ -49,7 +51,7 @@ __all__ = ["VonMises", "DruckerPrager", "mc_to_dp", "dp_to_mc", "von_mises_from_
 #: against c = 0 exactly, 1 kPa raises Q_V at s/d = 0.02 / 0.05 / 0.1 by 52 / 39 / 60 % (pointwise)
 #: and 54 / 61 / 97 % (B-bar).  c = 0 exactly runs too (scene: ``[model] regularising_cohesion =
 #: 0``), 2-3x slower, and stalled pointwise at phi = 45 deg.
-C_REG_DEFAULT = 1.0e3
+C_REG_DEFAULT = DEFAULT_REGULARISING_COHESION
 
 #: Above this Mohr-Coulomb angle (asin 0.6 = 36.87 deg) the compression-matched Drucker-Prager cone
 #: has tan(phi_dp) >= 1.5: it has no extension-matched Mohr-Coulomb angle, i.e. it is stronger in

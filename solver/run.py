@@ -79,8 +79,8 @@ def layer_material(layer, index: int = 0, *, c_reg: float | None = None):
             c, reg = regularised_cohesion(c, angle, c_reg)
         if reg:
             log.warning("%s: c = 0 (purely frictional) -> regularising cohesion %g Pa used (numerical device; it "
-                        "raises Q_V markedly: +60 %% at s/d = 0.1 for 1 kPa, phi = 40 deg; model.regularising_cohesion = 0 keeps "
-                        "c = 0; README, \"Purely frictional soil\")", key, c_reg)
+                        "raises Q_V markedly: at s/d = 0.1, +60 %% pointwise and +97 %% B-bar for 1 kPa, phi = 40 deg; "
+                        "model.regularising_cohesion = 0 keeps c = 0; README, \"Purely frictional soil\")", key, c_reg)
         if (layer.model == "drucker-prager" and layer.phi_dp is None and layer.phi is not None
                 and _MATCH.get(layer.match) == "compression" and layer.phi > PHI_COMPRESSION_MATCH_LIMIT):
             log.warning("%s: compression-matched Drucker-Prager with phi = %.1f deg > 36.87 deg is stronger in "

@@ -98,9 +98,10 @@ def test_purely_frictional_soil_with_gravity_converges(comm):
     """c = 0, phi = 40 deg, psi = 0 with gravity, mu = 0.8: indentation to s/d = 0.03 converges (the
     runs to s/d = 0.1 for phi = 35/40/45 are in benchmarks/bench_frictional_wheel.py).
 
-    What makes it run (README, "Purely frictional soil (c = 0) under the wheel"; measured): the plane-strain Drucker-Prager match (the
-    compression match at phi = 40 deg, tan(phi_dp) = 1.64, is stronger in triaxial extension than
-    any Mohr-Coulomb soil and stalled at s/d = 0.0004 with psi = 0, with or without cohesion), the
+    What makes it run (README, "Purely frictional soil (c = 0) under the wheel"; measured): the
+    plane-strain Drucker-Prager match (the compression match at phi = 40 deg, tan(phi_dp) = 1.64,
+    is stronger in triaxial extension than any Mohr-Coulomb soil and stalled at s/d = 0.0004 with
+    psi = 0, with or without cohesion), the
     regularising cohesion c_reg = 1 kPa that layer_material puts in place of c = 0 by default (about
     2.5x faster than c = 0 exactly, which stalled at s/d = 0.015 on another step sequence; it raises
     Q_V at s/d = 0.02 from 16.6 to 25.3 kN in the benchmark), and penalty alpha = 1 (about 3x
