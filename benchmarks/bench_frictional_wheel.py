@@ -136,7 +136,7 @@ def main():
     ap.add_argument("--creg", type=float, nargs="+", default=[1.0], help="regularising cohesion(s), kPa (0 = none)")
     ap.add_argument("--relaxation-length", type=float, nargs="+", default=[0.0],
                     help="Duvaut-Lions relaxation length(s), mm of sinkage (0 = rate-independent)")
-    ap.add_argument("--match", default="plane_strain", choices=["plane_strain", "compression", "extension"])
+    ap.add_argument("--match", default="plane_strain", choices=["plane_strain", "plane_strain_flow", "compression", "extension"])
     ap.add_argument("--alpha", type=float, default=1.0, help="contact penalty factor alpha (kappa = alpha E/h)")
     ap.add_argument("--accuracy", default="fast")
     ap.add_argument("--s-end", type=float, default=0.1, help="final s/d")

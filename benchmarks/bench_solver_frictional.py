@@ -3,6 +3,7 @@
     .venv/bin/python benchmarks/bench_solver_frictional.py [--out bench_solver_frictional.json]
         [--quick]        meshes n <= 8 (default n <= 16)
         [--before]       also run the old stepping (predictor 'none') at n = 8 (~12 min)
+        [--cases 1 2 3 4] which cases to run (default all)
 
 Cases (smooth rigid strip, half model 2.5B x 2.5B, P2 triangles, crossed, graded; B = 1 m):
   1. c = 0, phi = 30 deg (associated DP, plane-strain match), gamma = 18 kN/m3, K0 = 1 - sin(phi):
@@ -12,6 +13,12 @@ Cases (smooth rigid strip, half model 2.5B x 2.5B, P2 triangles, crossed, graded
      phi = 20 deg: p_lim vs the exact c N_c; plane-strain-matched Drucker-Prager alongside.
   3. extremes: nu = 0.3 / 0.49 / 0.499 (von Mises, n = 4); phi_dp = 60 deg with psi = 60 / 0;
      two Tresca layers with a 30:1 strength contrast ({tag: material}, interface on a mesh line).
+  4. non-associated flow, c = 0, gamma = 18 kN/m3, K0 = 1 - sin(phi), phi = 30 / 35 deg: N_gamma with
+     psi = 0 (plane-strain match with the flow rule) against, on the same mesh, the associated cone
+     (an upper bound: Radenkovic's first theorem) and the associated cone of the Davis angle
+     tan(phi*) = sin(phi) (the reduced-strength estimate); also the associated-formula cone with
+     psi = 0 ("plane_strain", a weaker Mohr-Coulomb soil in plane strain).  Settlement 0.005 B
+     (phi 30) / 0.008 B (phi 35); a stalled run reports its last converged settlement.
 """
 from __future__ import annotations
 
@@ -56,6 +63,7 @@ def main():
     ap.add_argument("--out", default="bench_solver_frictional.json")
     ap.add_argument("--quick", action="store_true")
     ap.add_argument("--before", action="store_true")
+    ap.add_argument("--cases", nargs="+", type=int, choices=[1, 2, 3, 4], default=[1, 2, 3, 4])
     ap.add_argument("-v", "--verbose", action="store_true")
     args = ap.parse_args()
     comm = MPI.COMM_WORLD
@@ -64,81 +72,113 @@ def main():
     ns = (2, 4, 8) if args.quick else (2, 4, 8, 16)
     out = {"ranks": comm.size, "cases": {}}
 
-    # 1. purely frictional soil
-    mat = DruckerPrager.from_mohr_coulomb(E, NU, 0.0, 30 * DEG, psi=None, matching="plane_strain")
-    say(f"1. c = 0, phi = 30 deg, gamma = 18 kN/m3, K0 = 1 - sin(phi): N_gamma vs Martin (2005) smooth "
-        f"{N_GAMMA_MARTIN}   [{comm.size} rank(s)]")
-    say(f"{'n':>3} {'predictor':>11} {'dofs':>6} {'N_gamma':>8} {'error':>7} {'steps':>5} {'cuts':>4} "
-        f"{'Newton':>6} {'max':>3} {'wall s':>7}")
-    rows = []
-    for n in ns:
-        preds = ["extrapolate"] + (["none"] if n <= 4 or (n == 8 and args.before) else [])
-        for pred in preds:
-            ctl = StepControl(dt=0.05, dt_max=0.1, dt_min=1e-6, max_cuts=12, predictor=pred)
-            r = footing(comm, mat, n, 0.03, ctl, unit_weight=GAMMA, K0=jaky_k0(30 * DEG))
-            r["predictor"] = pred
-            r["N_gamma"] = r["limit_pressure"] / (0.5 * GAMMA * B)
-            r["error"] = r["N_gamma"] / N_GAMMA_MARTIN - 1
-            rows.append(r)
-            say(f"{n:3d} {pred:>11} {r['dofs']:6d} {r['N_gamma']:8.4f} {100 * r['error']:6.2f}% {r['steps']:5d} "
-                f"{r.get('cuts', -1):4d} {r.get('newton_iterations', -1):6d} {r.get('max_iterations', -1):3d} "
-                f"{r['wall_time']:7.1f}" + ("" if r["ok"] else "  FAILED: " + r["error"]))
-    ex = [r for r in rows if r["predictor"] == "extrapolate" and r["ok"]]
-    if len(ex) >= 3:
-        a, b, c = (r["N_gamma"] for r in ex[-3:])
-        p = math.log((a - b) / (b - c)) / math.log(2)
-        rich = c - (b - c) / (2 ** p - 1)
-        out["richardson"] = {"rate": p, "N_gamma": rich}
-        say(f"  Richardson from the last three meshes: rate {p:.2f}, N_gamma -> {rich:.3f} "
-            f"({100 * (rich / N_GAMMA_MARTIN - 1):+.2f} % vs Martin)")
-    out["cases"]["c0_gravity_phi30"] = {"reference": N_GAMMA_MARTIN, "runs": rows}
+    if 1 in args.cases:
+        # 1. purely frictional soil
+        mat = DruckerPrager.from_mohr_coulomb(E, NU, 0.0, 30 * DEG, psi=None, matching="plane_strain")
+        say(f"1. c = 0, phi = 30 deg, gamma = 18 kN/m3, K0 = 1 - sin(phi): N_gamma vs Martin (2005) smooth "
+            f"{N_GAMMA_MARTIN}   [{comm.size} rank(s)]")
+        say(f"{'n':>3} {'predictor':>11} {'dofs':>6} {'N_gamma':>8} {'error':>7} {'steps':>5} {'cuts':>4} "
+            f"{'Newton':>6} {'max':>3} {'wall s':>7}")
+        rows = []
+        for n in ns:
+            preds = ["extrapolate"] + (["none"] if n <= 4 or (n == 8 and args.before) else [])
+            for pred in preds:
+                ctl = StepControl(dt=0.05, dt_max=0.1, dt_min=1e-6, max_cuts=12, predictor=pred)
+                r = footing(comm, mat, n, 0.03, ctl, unit_weight=GAMMA, K0=jaky_k0(30 * DEG))
+                r["predictor"] = pred
+                r["N_gamma"] = r["limit_pressure"] / (0.5 * GAMMA * B)
+                r["error"] = r["N_gamma"] / N_GAMMA_MARTIN - 1
+                rows.append(r)
+                say(f"{n:3d} {pred:>11} {r['dofs']:6d} {r['N_gamma']:8.4f} {100 * r['error']:6.2f}% {r['steps']:5d} "
+                    f"{r.get('cuts', -1):4d} {r.get('newton_iterations', -1):6d} {r.get('max_iterations', -1):3d} "
+                    f"{r['wall_time']:7.1f}" + ("" if r["ok"] else "  FAILED: " + r["error"]))
+        ex = [r for r in rows if r["predictor"] == "extrapolate" and r["ok"]]
+        if len(ex) >= 3:
+            a, b, c = (r["N_gamma"] for r in ex[-3:])
+            p = math.log((a - b) / (b - c)) / math.log(2)
+            rich = c - (b - c) / (2 ** p - 1)
+            out["richardson"] = {"rate": p, "N_gamma": rich}
+            say(f"  Richardson from the last three meshes: rate {p:.2f}, N_gamma -> {rich:.3f} "
+                f"({100 * (rich / N_GAMMA_MARTIN - 1):+.2f} % vs Martin)")
+        out["cases"]["c0_gravity_phi30"] = {"reference": N_GAMMA_MARTIN, "runs": rows}
 
-    # 2. smoothed Mohr-Coulomb
-    phi = 20 * DEG
-    exact = C * prandtl_nc(phi)
-    say(f"2. weightless associated phi = 20 deg: exact c Nc = {exact / C:.4f} c")
-    rows = []
-    for label, m in (("SMC theta_T=29", SmoothedMohrCoulomb(E, NU, C, phi, dilation=phi)),
-                     ("SMC theta_T=25", SmoothedMohrCoulomb(E, NU, C, phi, dilation=phi, transition_angle=25 * DEG)),
-                     ("DP plane-strain", DruckerPrager.from_mohr_coulomb(E, NU, C, phi, psi=None,
-                                                                         matching="plane_strain"))):
-        for n in ns[:3]:
-            r = footing(comm, m, n, 0.2)
-            r["model"], r["error"] = label, r["limit_pressure"] / exact - 1
-            rows.append(r)
-            say(f"  {label:>16} n={n:2d}: p/c = {r['limit_pressure'] / C:8.4f} ({100 * r['error']:+.2f} %), "
-                f"steps {r['steps']}, cuts {r['cuts']}, Newton {r['newton_iterations']}, wall {r['wall_time']:.1f} s")
-    out["cases"]["smoothed_mc_phi20"] = {"exact": exact, "runs": rows}
+    if 2 in args.cases:
+        # 2. smoothed Mohr-Coulomb
+        phi = 20 * DEG
+        exact = C * prandtl_nc(phi)
+        say(f"2. weightless associated phi = 20 deg: exact c Nc = {exact / C:.4f} c")
+        rows = []
+        for label, m in (("SMC theta_T=29", SmoothedMohrCoulomb(E, NU, C, phi, dilation=phi)),
+                         ("SMC theta_T=25", SmoothedMohrCoulomb(E, NU, C, phi, dilation=phi,
+                                                                transition_angle=25 * DEG)),
+                         ("DP plane-strain", DruckerPrager.from_mohr_coulomb(E, NU, C, phi, psi=None,
+                                                                             matching="plane_strain"))):
+            for n in ns[:3]:
+                r = footing(comm, m, n, 0.2)
+                r["model"], r["error"] = label, r["limit_pressure"] / exact - 1
+                rows.append(r)
+                say(f"  {label:>16} n={n:2d}: p/c = {r['limit_pressure'] / C:8.4f} ({100 * r['error']:+.2f} %), "
+                    f"steps {r['steps']}, cuts {r['cuts']}, Newton {r['newton_iterations']}, "
+                    f"wall {r['wall_time']:.1f} s")
+        out["cases"]["smoothed_mc_phi20"] = {"exact": exact, "runs": rows}
 
-    # 3. extremes
-    say("3. extremes (n = 4)")
-    rows = []
-    for nu in (0.3, 0.49, 0.499):
-        r = footing(comm, von_mises_from_tresca(E, nu, C), 4, 0.1)
-        r["case"], r["error"] = f"von Mises nu={nu}", r["limit_pressure"] / ((2 + math.pi) * C) - 1
-        rows.append(r)
-        say(f"  {r['case']:>24}: p/((2+pi)c) - 1 = {100 * r['error']:+.2f} %, steps {r['steps']}, "
-            f"Newton {r['newton_iterations']}, wall {r['wall_time']:.1f} s")
-    for psi in (60.0, 0.0):
-        m = DruckerPrager(E, NU, phi_dp=60 * DEG, c_dp=C, dilation=psi * DEG)
-        r = footing(comm, m, 4, 0.1, EXTREME_CTL)
-        r["case"] = f"DP phi_dp=60 psi={psi:g}"
-        rows.append(r)
-        say(f"  {r['case']:>24}: " + (f"converged, p = {r['limit_pressure'] / C:.2f} c at s = 0.1 B (rising), "
-                                      f"steps {r['steps']}, cuts {r['cuts']}" if r["ok"] else
-                                      f"SolverDivergedError at t = {r['t_failed']:.4f}, p = "
-                                      f"{r['limit_pressure'] / C:.2f} c: {r['error']}")
-            + f", wall {r['wall_time']:.1f} s")
-    for top, bot, settle in ((10e3, 300e3, 0.02), (300e3, 10e3, 0.1)):
-        m = {1: von_mises_from_tresca(E, NU, top), 2: von_mises_from_tresca(E, NU, bot)}
-        r = footing(comm, m, 4, settle, EXTREME_CTL, interfaces=[0.25 * B])
-        r["case"] = f"Tresca {top / 1e3:g} kPa over {bot / 1e3:g} kPa, H = 0.25 B"
-        r["ratio_to_weak"] = r["limit_pressure"] / ((2 + math.pi) * min(top, bot))
-        rows.append(r)
-        say(f"  {r['case']:>24}: p = {r['ratio_to_weak']:.3f} (2+pi) c_weak at s = {settle} B "
-            f"(last increment {100 * r.get('plateau', float('nan')):.2f} %), steps {r['steps']}, "
-            f"cuts {r.get('cuts')}, wall {r['wall_time']:.1f} s")
-    out["cases"]["extremes"] = rows
+    if 3 in args.cases:
+        # 3. extremes
+        say("3. extremes (n = 4)")
+        rows = []
+        for nu in (0.3, 0.49, 0.499):
+            r = footing(comm, von_mises_from_tresca(E, nu, C), 4, 0.1)
+            r["case"], r["error"] = f"von Mises nu={nu}", r["limit_pressure"] / ((2 + math.pi) * C) - 1
+            rows.append(r)
+            say(f"  {r['case']:>24}: p/((2+pi)c) - 1 = {100 * r['error']:+.2f} %, steps {r['steps']}, "
+                f"Newton {r['newton_iterations']}, wall {r['wall_time']:.1f} s")
+        for psi in (60.0, 0.0):
+            m = DruckerPrager(E, NU, phi_dp=60 * DEG, c_dp=C, dilation=psi * DEG)
+            r = footing(comm, m, 4, 0.1, EXTREME_CTL)
+            r["case"] = f"DP phi_dp=60 psi={psi:g}"
+            rows.append(r)
+            say(f"  {r['case']:>24}: " + (f"converged, p = {r['limit_pressure'] / C:.2f} c at s = 0.1 B (rising), "
+                                          f"steps {r['steps']}, cuts {r['cuts']}" if r["ok"] else
+                                          f"SolverDivergedError at t = {r['t_failed']:.4f}, p = "
+                                          f"{r['limit_pressure'] / C:.2f} c: {r['error']}")
+                + f", wall {r['wall_time']:.1f} s")
+        for top, bot, settle in ((10e3, 300e3, 0.02), (300e3, 10e3, 0.1)):
+            m = {1: von_mises_from_tresca(E, NU, top), 2: von_mises_from_tresca(E, NU, bot)}
+            r = footing(comm, m, 4, settle, EXTREME_CTL, interfaces=[0.25 * B])
+            r["case"] = f"Tresca {top / 1e3:g} kPa over {bot / 1e3:g} kPa, H = 0.25 B"
+            r["ratio_to_weak"] = r["limit_pressure"] / ((2 + math.pi) * min(top, bot))
+            rows.append(r)
+            say(f"  {r['case']:>24}: p = {r['ratio_to_weak']:.3f} (2+pi) c_weak at s = {settle} B "
+                f"(last increment {100 * r.get('plateau', float('nan')):.2f} %), steps {r['steps']}, "
+                f"cuts {r.get('cuts')}, wall {r['wall_time']:.1f} s")
+        out["cases"]["extremes"] = rows
+
+    if 4 in args.cases:
+        # 4. non-associated flow
+        say("4. c = 0, psi = 0: N_gamma between the Davis estimate and the associated cone (same mesh)")
+        rows = []
+        for phi_deg, settle in ((30.0, 0.005), (35.0, 0.008)):
+            phi = phi_deg * DEG
+            cones = {"psi=0": DruckerPrager.from_mohr_coulomb(E, NU, 0.0, phi, psi=0.0, matching="plane_strain_flow"),
+                     "associated": DruckerPrager.from_mohr_coulomb(E, NU, 0.0, phi, psi=None, matching="plane_strain"),
+                     "Davis phi*": DruckerPrager.from_mohr_coulomb(E, NU, 0.0, math.atan(math.sin(phi)), psi=None,
+                                                                   matching="plane_strain"),
+                     "psi=0, assoc. formula": DruckerPrager.from_mohr_coulomb(E, NU, 0.0, phi, psi=0.0,
+                                                                              matching="plane_strain")}
+            for n in ns[:2] if args.quick else ns[:3]:
+                for label, m in cones.items():
+                    ctl = StepControl(dt=0.02, dt_max=0.1, dt_min=1e-7, max_cuts=12, max_wall_time=300,
+                                      predictor="auto")
+                    r = footing(comm, m, n, settle * B, ctl, unit_weight=GAMMA, K0=jaky_k0(phi))
+                    r.update(phi_deg=phi_deg, cone=label, N_gamma=r["limit_pressure"] / (0.5 * GAMMA * B),
+                             reached=settle if r["ok"] else r["t_failed"] * settle)
+                    rows.append(r)
+                by = {r["cone"]: r for r in rows[-len(cones):]}
+                say(f"  phi {phi_deg:g} n={n:2d}: " + ", ".join(
+                    f"{k} {v['N_gamma']:.3f}" + ("" if v["ok"] else f" (stalled at s = {v['reached']:.4f} B)")
+                    for k, v in by.items())
+                    + f"; psi=0 / associated = {by['psi=0']['N_gamma'] / by['associated']['N_gamma']:.3f}")
+        out["cases"]["nonassociated_c0"] = rows
 
     if comm.rank == 0:
         with open(args.out, "w") as fh:

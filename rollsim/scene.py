@@ -18,7 +18,7 @@ from rollsim.units import (ANGLE, DIMENSIONLESS, FORCE, LENGTH, PRESSURE, UNIT_W
 WHEEL_TYPES = ("rigid", "pneumatic")
 WHEEL_SHAPES = ("cylinder", "torus")
 SOIL_MODELS = ("von-mises", "drucker-prager", "mohr-coulomb")
-MATCHES = ("compression", "extension", "plane-strain")
+MATCHES = ("compression", "extension", "plane-strain", "plane-strain-flow")
 PROTOCOLS = ("indentation", "rolling-continuous", "rolling-constant-load")
 ACCURACIES = ("fast", "standard", "accurate")
 #: small strain, or incremental large deformation (the solver's ``PlasticityProblem(kinematics=...)``)

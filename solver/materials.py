@@ -31,8 +31,23 @@ Mohr-Coulomb (c, phi) -> Drucker-Prager (c_dp, phi_dp) matchings
 
   (equivalently ``alpha = tan(phi)/sqrt(9 + 12 tan^2 phi)``, ``k = 3c/sqrt(9 + 12 tan^2 phi)`` in
   ``alpha I1 + sqrt(J2) = k``).  ``phi = 0`` gives ``c_dp = sqrt(3) c``: von Mises with
-  ``q = sqrt(3) c``, the plane-strain match of Tresca.  For the dilation angle the same map is used
-  on ``psi`` (``psi_dp``); this is exact only for the associated case.
+  ``q = sqrt(3) c``, the plane-strain match of Tresca.
+* plane strain with the flow rule (``matching="plane_strain_flow"``, the scene's ``match =
+  "plane-strain-flow"``; dilation angle ``psi < phi``).  The same argument with the
+  potential ``g = q - p tan(psi_dp)`` gives ``d = -q P / 3`` (``P = tan(psi_dp)``) and::
+
+      t = (c_dp - T m) sqrt(1 - P^2/9) / (sqrt(3) (1 - T P / 9))
+
+  so Mohr-Coulomb (c, phi) needs ``T = sqrt(3) sin(phi) / (sqrt(1 - P^2/9) + sqrt(3) sin(phi) P / 9)``
+  and ``c_dp = sqrt(3) c cos(phi) (1 - T P / 9) / sqrt(1 - P^2/9)``; ``psi = 0`` gives
+  ``tan(phi_dp) = sqrt(3) sin(phi)``, ``c_dp = sqrt(3) c cos(phi)``.  The dilation angle maps like
+  the associated friction angle, ``P = 3 sin(psi) / sqrt(3 + sin(psi)^2)``: that is the in-plane
+  dilatancy ``sin(psi) = (deps_1 + deps_3) / (deps_1 - deps_3)`` of the cone's flow.  This cone is
+  steeper than the associated one (phi = 40 deg, psi = 0: tan(phi_dp) = 1.113 against 1.044).
+  ``"plane_strain"`` keeps the associated formula whatever ``psi`` is (the c = 0 wheel runs were
+  tuned and measured with it): with ``psi = 0`` it is, in plane strain, a Mohr-Coulomb soil of
+  28.7 / 33.0 / 37.1 / 40.9 deg for phi = 30 / 35 / 40 / 45 deg (README, "Plane-strain match and
+  non-associated flow").
 """
 from __future__ import annotations
 
@@ -59,7 +74,7 @@ C_REG_DEFAULT = DEFAULT_REGULARISING_COHESION
 #: indentation at s/d < 0.002 (README, "Purely frictional soil"); prefer the plane-strain match there.
 PHI_COMPRESSION_MATCH_LIMIT = math.asin(0.6)
 
-MATCHINGS = ("compression", "extension", "plane_strain")
+MATCHINGS = ("compression", "extension", "plane_strain", "plane_strain_flow")
 
 
 def _check_elastic(E: float, nu: float) -> None:
@@ -157,8 +172,11 @@ class DruckerPrager(_Elastic):
     @classmethod
     def from_mohr_coulomb(cls, E: float, nu: float, c: float, phi: float, psi: float | None = 0.0,
                           matching: str = "compression") -> "DruckerPrager":
-        """Drucker-Prager matched to Mohr-Coulomb (c [Pa], phi, psi [rad]); ``psi=None`` -> associated."""
-        phi_dp, c_dp = mc_to_dp(c, phi, matching)
+        """Drucker-Prager matched to Mohr-Coulomb (c [Pa], phi, psi [rad]); ``psi=None`` -> associated.
+
+        ``matching="plane_strain_flow"``: the cone whose plane-strain strength with the dilation
+        ``psi`` is Mohr-Coulomb's (module docstring); ``"plane_strain"`` assumes associated flow."""
+        phi_dp, c_dp = mc_to_dp(c, phi, matching, psi=psi)
         if psi is None:
             psi_dp = phi_dp
         else:
@@ -166,8 +184,10 @@ class DruckerPrager(_Elastic):
         return cls(E=E, nu=nu, phi_dp=phi_dp, c_dp=c_dp, dilation=min(psi_dp, phi_dp))
 
 
-def mc_to_dp(c: float, phi: float, matching: str = "compression") -> tuple[float, float]:
-    """Mohr-Coulomb (c [Pa], phi [rad]) -> Drucker-Prager (phi_dp [rad], c_dp [Pa])."""
+def mc_to_dp(c: float, phi: float, matching: str = "compression", psi: float | None = None) -> tuple[float, float]:
+    """Mohr-Coulomb (c [Pa], phi [rad]) -> Drucker-Prager (phi_dp [rad], c_dp [Pa]).
+
+    ``psi`` (rad, dilation angle; None = associated) is used by ``"plane_strain_flow"`` only."""
     if matching not in MATCHINGS:
         raise ValueError(f"matching must be one of {MATCHINGS}, got {matching!r}")
     if not 0.0 <= phi < math.pi / 2:
@@ -179,12 +199,22 @@ def mc_to_dp(c: float, phi: float, matching: str = "compression") -> tuple[float
         return math.atan(6 * s / (3 - s)), 6 * c * co / (3 - s)
     if matching == "extension":
         return math.atan(6 * s / (3 + s)), 6 * c * co / (3 + s)
-    r = math.sqrt(3 + s * s)
-    return math.atan(3 * s / r), 3 * c * co / r
+    if matching == "plane_strain" or psi is None or psi >= phi:
+        r = math.sqrt(3 + s * s)
+        return math.atan(3 * s / r), 3 * c * co / r
+    if psi < 0:
+        raise ValueError(f"psi must be in [0, phi] radians, got {psi!r}")
+    P = math.tan(mc_to_dp(0.0, psi, "plane_strain")[0])     # the dilation maps like an associated angle
+    R, root3 = math.sqrt(1 - P * P / 9), math.sqrt(3.0)
+    T = root3 * s / (R + root3 * s * P / 9)
+    return math.atan(T), root3 * c * co * (1 - T * P / 9) / R
 
 
-def dp_to_mc(phi_dp: float, c_dp: float, matching: str = "compression") -> tuple[float, float]:
-    """Inverse of :func:`mc_to_dp`: (phi_dp [rad], c_dp [Pa]) -> (c [Pa], phi [rad])."""
+def dp_to_mc(phi_dp: float, c_dp: float, matching: str = "compression",
+             psi_dp: float | None = None) -> tuple[float, float]:
+    """Inverse of :func:`mc_to_dp`: (phi_dp [rad], c_dp [Pa]) -> (c [Pa], phi [rad]).
+
+    ``psi_dp`` (rad, the cone's dilation; None = associated) is used by ``"plane_strain_flow"`` only."""
     if matching not in MATCHINGS:
         raise ValueError(f"matching must be one of {MATCHINGS}, got {matching!r}")
     T = math.tan(phi_dp)
@@ -201,11 +231,13 @@ def dp_to_mc(phi_dp: float, c_dp: float, matching: str = "compression") -> tuple
         phi = math.asin(s)
         c = c_dp * (3 + s) / (6 * math.cos(phi))
     else:
-        if T >= math.sqrt(3):
+        P = T if matching == "plane_strain" or psi_dp is None else min(math.tan(psi_dp), T)
+        R, den = math.sqrt(max(1 - P * P / 9, 0.0)), math.sqrt(3) * (1 - T * P / 9)
+        s = T * R / den if den > 0 else math.inf            # sin(phi), module docstring
+        if not 0 <= s < 1:
             raise ValueError(f"phi_dp = {phi_dp} has no plane-strain-matched Mohr-Coulomb angle")
-        s = math.sqrt(3 * T * T / (9 - T * T))
         phi = math.asin(s)
-        c = c_dp * math.sqrt(3 + s * s) / (3 * math.cos(phi))
+        c = c_dp * R / (den * math.cos(phi))
     return c, phi
 
 

@@ -43,7 +43,8 @@ HISTORY_COLUMNS = ["step", "sinkage_m", "s_over_d", "QV_N", "QH_N", "travel_m", 
 #: s/d values at which Q_V is always computed (step boundaries) and reported in summary.json
 REPORT_S_OVER_D = (0.01, 0.02, 0.03, 0.05, 0.08, 0.1)
 
-_MATCH = {"compression": "compression", "extension": "extension", "plane-strain": "plane_strain"}
+_MATCH = {"compression": "compression", "extension": "extension", "plane-strain": "plane_strain",
+          "plane-strain-flow": "plane_strain_flow"}
 
 
 def layer_material(layer, index: int = 0, *, c_reg: float | None = None):

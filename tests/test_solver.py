@@ -69,23 +69,44 @@ def test_mohr_coulomb_matching_numbers():
     assert c == pytest.approx(46.1e3, abs=0.1e3)
     # the compression cone is the outer one; round trips for all matchings
     assert max(mc_to_dp(1e4, 0.5, "extension")[0], mc_to_dp(1e4, 0.5, "plane_strain")[0]) < mc_to_dp(1e4, 0.5)[0]
-    for m in ("compression", "extension", "plane_strain"):
+    for m in ("compression", "extension", "plane_strain", "plane_strain_flow"):
         c, phi = dp_to_mc(*mc_to_dp(3e4, 25 * DEG, m), m)
         assert (c, phi) == pytest.approx((3e4, 25 * DEG), rel=1e-12)
+    # a plane-strain cone steeper than tan(phi_dp) = 1.5 has no Mohr-Coulomb angle (sin(phi) >= 1)
+    for T in (1.5, 1.6):
+        with pytest.raises(ValueError, match="no plane-strain-matched"):
+            dp_to_mc(math.atan(T), 1e3, "plane_strain")
     # plane strain, phi = 0: von Mises with q = sqrt(3) c (Tresca)
     phi_dp, c_dp = mc_to_dp(C, 0.0, "plane_strain")
     assert phi_dp == 0.0 and c_dp == pytest.approx(math.sqrt(3) * C, rel=1e-14)
     assert von_mises_from_tresca(E, NU, C).yield_stress == pytest.approx(c_dp, rel=1e-14)
 
 
-@pytest.mark.parametrize("phi_deg", [0.0, 20.0, 35.0])
-def test_plane_strain_matching_reproduces_mohr_coulomb(phi_deg):
-    """Drive one material point (associated DP, plane-strain match) in plane strain (eps_zz = 0)
-    with a strain rate that admits steady plastic flow (dilatancy ratio of the cone); at steady
-    flow the in-plane Mohr circle must touch the Mohr-Coulomb line.  Independent check of the
-    derived matching, including the eps_zz^p = 0 argument."""
+@pytest.mark.parametrize("phi_deg, psi_deg", [(0.0, None), (20.0, None), (35.0, None), (35.0, 0.0), (40.0, 0.0),
+                                              (40.0, 10.0)])
+def test_plane_strain_matching_reproduces_mohr_coulomb(phi_deg, psi_deg):
+    """Drive one material point (DP, plane-strain match with the flow rule; associated for psi None)
+    in plane strain (eps_zz = 0) with a strain rate that admits steady plastic flow (dilatancy ratio
+    of the cone's potential); at steady flow the in-plane Mohr circle must touch the Mohr-Coulomb
+    line.  Independent check of the derived matching, including the eps_zz^p = 0 argument, which
+    with psi < phi makes the cone depend on psi: the associated formula ("plane_strain") with
+    psi = 0 is a 37.06 deg soil for phi = 40 deg (checked below; in a one-off run the same driver
+    gave that cone a circle 6 % smaller than Mohr-Coulomb's)."""
     c, phi = 40e3, phi_deg * DEG
-    mat = DruckerPrager.from_mohr_coulomb(E, NU, c, phi, psi=None, matching="plane_strain")
+    psi = None if psi_deg is None else psi_deg * DEG
+    mat = DruckerPrager.from_mohr_coulomb(E, NU, c, phi, psi=psi, matching="plane_strain_flow")
+    assert DruckerPrager.from_mohr_coulomb(E, NU, c, phi, psi=psi, matching="plane_strain").phi_dp == \
+        mc_to_dp(c, phi, "plane_strain")[0]                    # the associated formula whatever psi is
+    if psi is not None:
+        assert mat.phi_dp > mc_to_dp(c, phi, "plane_strain")[0] and mat.dilation < mat.phi_dp
+    if (phi_deg, psi_deg) == (40.0, 0.0):
+        old = mc_to_dp(c, phi, "plane_strain")[0]              # the associated cone with psi = 0
+        assert dp_to_mc(old, 1.0, "plane_strain_flow", psi_dp=0.0)[1] / DEG == pytest.approx(37.06, abs=0.01)
+        assert math.tan(mat.phi_dp) == pytest.approx(math.sqrt(3) * math.sin(phi), rel=1e-14)
+    for m in ("compression", "extension"):                     # these matches do not depend on the flow
+        assert mc_to_dp(c, phi, m, psi=psi) == mc_to_dp(c, phi, m)
+    assert dp_to_mc(mat.phi_dp, mat.c_dp, "plane_strain_flow", psi_dp=mat.dilation) == \
+        pytest.approx((c, phi), rel=1e-12)
     k = mat.tan_psi / math.sqrt(1.5)          # tr(deps_p) / |dev(deps_p)| on the cone
     d, s4 = -1e-5, 3e-5                       # in-plane deviatoric + shear (Mandel)
     t = math.sqrt(k * k * (2 * d * d + s4 * s4) / (1 - k * k / 6))

@@ -335,3 +335,25 @@ def test_regularised_cohesion_and_scene_layers():
     scene["soil"]["layers"] = layers
     with pytest.raises(InputError, match="model.regularising_cohesion"):
         parse_scene(scene)
+
+
+def test_scene_match_plane_strain_flow():
+    """match = "plane-strain-flow": the cone of the layer's dilation angle (psi = 0 by default:
+    tan(phi_dp) = sqrt(3) sin(phi), c_dp = sqrt(3) c cos(phi)); "plane-strain" keeps the associated
+    formula; with an associated layer (dilation = phi) the two agree."""
+    from rollsim.scene import parse_scene
+    from rollsim.solver.run import layer_material
+    layer = {"model": "drucker-prager", "E": 4e7, "nu": 0.35, "c": 10e3, "phi": 40}
+
+    def material(**kw):
+        sc = parse_scene({"wheel": {"diameter": 1.0, "width": 0.3},
+                          "soil": {"gamma": 20e3, "layers": [dict(layer, **kw)]},
+                          "loading": {"protocol": "indentation", "max_sinkage": 0.1}})
+        return layer_material(sc.soil.layers[0])
+    s, co = math.sin(40 * DEG), math.cos(40 * DEG)
+    flow = material(match="plane-strain-flow")
+    assert math.tan(flow.phi_dp) == pytest.approx(math.sqrt(3) * s, rel=1e-12) and flow.dilation == 0
+    assert flow.c_dp == pytest.approx(math.sqrt(3) * 10e3 * co, rel=1e-12)
+    assert math.tan(material(match="plane-strain").phi_dp) == pytest.approx(3 * s / math.sqrt(3 + s * s), rel=1e-12)
+    assoc = material(match="plane-strain-flow", dilation=40)
+    assert assoc == material(match="plane-strain", dilation=40)

@@ -57,6 +57,34 @@ def test_frictional_c0_footing_predictor(comm):
     assert its_old > 1.5 * its_new and sum(old.cuts) >= sum(new.cuts)
 
 
+def test_nonassociated_c0_footing_between_davis_and_associated(comm):
+    """c = 0, psi = 0 (plane-strain match with the flow rule), gamma = 18 kN/m3, K0 = 1 - sin(phi),
+    n = 2: N_gamma lies below the associated cone's on the same mesh (Radenkovic's first theorem:
+    non-associated flow cannot raise the limit load) and above the associated cone of the Davis
+    angle tan(phi*) = sin(phi) (the reduced-strength estimate of non-associated flow), and the
+    non-associated reduction grows with phi.  Measured at settlement 0.005 B (phi 30) / 0.008 B (35):
+    8.029 between 5.135 and 8.826 (0.91 of it); 16.00 between 8.65 and 19.86 (0.81).  The
+    associated-formula cone ("plane_strain") with psi = 0 is a weaker soil (28.7 / 33.0 deg in plane
+    strain): 6.678 / 12.85.  On n = 4 the psi = 0 runs stall (benchmarks/bench_solver_frictional.py,
+    case 4), so there is no mesh convergence here."""
+    from rollsim.solver import StepControl, StripFooting, strip_footing_mesh
+    ratios = []
+    for phi_deg, settle in ((30.0, 0.005), (35.0, 0.008)):
+        phi = phi_deg * DEG
+        n_gamma = {}
+        for label, match, angle, psi in (("psi0", "plane_strain_flow", phi, 0.0), ("assoc", "plane_strain", phi, None),
+                                         ("davis", "plane_strain", math.atan(math.sin(phi)), None),
+                                         ("psi0_assoc_formula", "plane_strain", phi, 0.0)):
+            mat = DruckerPrager.from_mohr_coulomb(E, NU, 0.0, angle, psi=psi, matching=match)
+            fo = StripFooting(strip_footing_mesh(comm, B, 2), mat, B, unit_weight=GAMMA, K0=jaky_k0(phi))
+            ctl = StepControl(dt=0.02, dt_max=0.1, dt_min=1e-7, max_cuts=12, max_wall_time=120, predictor="auto")
+            n_gamma[label] = fo.run(settle * B, ctl).limit_pressure / (0.5 * GAMMA * B)
+        assert n_gamma["davis"] < n_gamma["psi0"] < n_gamma["assoc"], n_gamma
+        assert n_gamma["psi0_assoc_formula"] < 0.9 * n_gamma["psi0"], n_gamma
+        ratios.append(n_gamma["psi0"] / n_gamma["assoc"])
+    assert 0.75 < ratios[1] < ratios[0] < 0.97, ratios
+
+
 class _Collect(logging.Handler):
     def __init__(self):
         super().__init__(logging.WARNING)
