@@ -16,9 +16,10 @@ Cases (smooth rigid strip, half model 2.5B x 2.5B, P2 triangles, crossed, graded
   4. non-associated flow, c = 0, gamma = 18 kN/m3, K0 = 1 - sin(phi), phi = 30 / 35 deg: N_gamma with
      psi = 0 (plane-strain match with the flow rule) against, on the same mesh, the associated cone
      (an upper bound: Radenkovic's first theorem) and the associated cone of the Davis angle
-     tan(phi*) = sin(phi) (the reduced-strength estimate); also the associated-formula cone with
-     psi = 0 ("plane_strain", a weaker Mohr-Coulomb soil in plane strain).  Settlement 0.005 B
-     (phi 30) / 0.008 B (phi 35); a stalled run reports its last converged settlement.
+     tan(phi*) = sin(phi) (the reduced-strength estimate); crossed and one-diagonal ("right")
+     triangles, pointwise and B-bar strain; also the associated-formula cone with psi = 0
+     ("plane_strain", a weaker Mohr-Coulomb soil in plane strain; crossed, pointwise).  Settlement
+     0.005 B (phi 30) / 0.008 B (phi 35); a stalled run reports its last converged settlement.
 """
 from __future__ import annotations
 
@@ -39,9 +40,9 @@ EXTREME_CTL = StepControl(dt=0.05, dt_max=0.2, dt_min=1e-5, max_wall_time=300, p
 N_GAMMA_MARTIN = 7.65      # smooth strip, phi = 30 deg; Martin (2005), Proc. 11th IACMAG, vol. 4, 441-450
 
 
-def footing(comm, material, n, settlement, control=None, interfaces=None, **kw):
+def footing(comm, material, n, settlement, control=None, interfaces=None, diagonal="crossed", **kw):
     t0 = time.perf_counter()
-    fo = StripFooting(strip_footing_mesh(comm, B, n, interfaces=interfaces or ()), material, B,
+    fo = StripFooting(strip_footing_mesh(comm, B, n, interfaces=interfaces or (), diagonal=diagonal), material, B,
                       interfaces=interfaces, **kw)
     out = {"n": n, "dofs": fo.n_dofs}
     try:
@@ -155,7 +156,8 @@ def main():
 
     if 4 in args.cases:
         # 4. non-associated flow
-        say("4. c = 0, psi = 0: N_gamma between the Davis estimate and the associated cone (same mesh)")
+        say("4. c = 0, psi = 0: N_gamma between the Davis estimate and the associated cone (same mesh), "
+            "both strains, both mesh patterns")
         rows = []
         for phi_deg, settle in ((30.0, 0.005), (35.0, 0.008)):
             phi = phi_deg * DEG
@@ -165,19 +167,26 @@ def main():
                                                                    matching="plane_strain"),
                      "psi=0, assoc. formula": DruckerPrager.from_mohr_coulomb(E, NU, 0.0, phi, psi=0.0,
                                                                               matching="plane_strain")}
-            for n in ns[:2] if args.quick else ns[:3]:
-                for label, m in cones.items():
-                    ctl = StepControl(dt=0.02, dt_max=0.1, dt_min=1e-7, max_cuts=12, max_wall_time=300,
-                                      predictor="auto")
-                    r = footing(comm, m, n, settle * B, ctl, unit_weight=GAMMA, K0=jaky_k0(phi))
-                    r.update(phi_deg=phi_deg, cone=label, N_gamma=r["limit_pressure"] / (0.5 * GAMMA * B),
-                             reached=settle if r["ok"] else r["t_failed"] * settle)
-                    rows.append(r)
-                by = {r["cone"]: r for r in rows[-len(cones):]}
-                say(f"  phi {phi_deg:g} n={n:2d}: " + ", ".join(
-                    f"{k} {v['N_gamma']:.3f}" + ("" if v["ok"] else f" (stalled at s = {v['reached']:.4f} B)")
-                    for k, v in by.items())
-                    + f"; psi=0 / associated = {by['psi=0']['N_gamma'] / by['associated']['N_gamma']:.3f}")
+            for diagonal in ("crossed", "right"):
+                for strain in ("pointwise", "cell-average"):
+                    for n in ns[:2] if args.quick else ns[:3]:
+                        by = {}
+                        for label, m in cones.items():
+                            if label.endswith("formula") and (diagonal, strain) != ("crossed", "pointwise"):
+                                continue
+                            ctl = StepControl(dt=0.02, dt_max=0.1, dt_min=1e-7, max_cuts=12, max_wall_time=300,
+                                              predictor="auto")
+                            r = footing(comm, m, n, settle * B, ctl, diagonal=diagonal, volumetric_strain=strain,
+                                        unit_weight=GAMMA, K0=jaky_k0(phi))
+                            r.update(phi_deg=phi_deg, cone=label, diagonal=diagonal, volumetric_strain=strain,
+                                     N_gamma=r["limit_pressure"] / (0.5 * GAMMA * B),
+                                     reached=settle if r["ok"] else r["t_failed"] * settle)
+                            rows.append(r)
+                            by[label] = r
+                        say(f"  phi {phi_deg:g} {diagonal:>7} {strain:>12} n={n:2d}: " + ", ".join(
+                            f"{k} {v['N_gamma']:.3f}" + ("" if v["ok"] else f" (stalled at {v['reached']:.4f} B)")
+                            for k, v in by.items())
+                            + f"; psi=0 / associated = {by['psi=0']['N_gamma'] / by['associated']['N_gamma']:.3f}")
         out["cases"]["nonassociated_c0"] = rows
 
     if comm.rank == 0:
