@@ -25,10 +25,19 @@ GAMMA = 18e3
 N_GAMMA_SMOOTH_30 = 7.65
 
 
-def _c0_footing(comm, n, K0=None):
+def _c0_footing(comm, n, K0=None, mat=None, diagonal="crossed", **kw):
+    """Smooth strip on c = 0 soil with self weight (default: associated, phi = 30 deg)."""
     from rollsim.solver import StripFooting, strip_footing_mesh
-    mat = DruckerPrager.from_mohr_coulomb(E, NU, 0.0, 30 * DEG, psi=None, matching="plane_strain")
-    return StripFooting(strip_footing_mesh(comm, B, n), mat, B, unit_weight=GAMMA, K0=K0)
+    mat = mat or DruckerPrager.from_mohr_coulomb(E, NU, 0.0, 30 * DEG, psi=None, matching="plane_strain")
+    return StripFooting(strip_footing_mesh(comm, B, n, diagonal=diagonal), mat, B, unit_weight=GAMMA, K0=K0, **kw)
+
+
+def _n_gamma(comm, mat, n, phi, settlement, **kw) -> float:
+    """N_gamma = p / (gamma B / 2) of a c = 0 footing (K0 = 1 - sin(phi)) pushed to ``settlement`` (m)."""
+    from rollsim.solver import StepControl
+    fo = _c0_footing(comm, n, K0=jaky_k0(phi), mat=mat, **kw)
+    ctl = StepControl(dt=0.02, dt_max=0.1, dt_min=1e-7, max_cuts=12, max_wall_time=120, predictor="auto")
+    return fo.run(settlement, ctl).limit_pressure / (0.5 * GAMMA * B)
 
 
 def test_frictional_c0_footing_predictor(comm):
@@ -67,7 +76,6 @@ def test_nonassociated_c0_footing_between_davis_and_associated(comm):
     associated-formula cone ("plane_strain") with psi = 0 is a weaker soil (28.7 / 33.0 deg in plane
     strain): 6.678 / 12.85.  On n = 4 the psi = 0 runs stall (benchmarks/bench_solver_frictional.py,
     case 4), so there is no mesh convergence here."""
-    from rollsim.solver import StepControl, StripFooting, strip_footing_mesh
     ratios = []
     for phi_deg, settle in ((30.0, 0.005), (35.0, 0.008)):
         phi = phi_deg * DEG
@@ -76,9 +84,7 @@ def test_nonassociated_c0_footing_between_davis_and_associated(comm):
                                          ("davis", "plane_strain", math.atan(math.sin(phi)), None),
                                          ("psi0_assoc_formula", "plane_strain", phi, 0.0)):
             mat = DruckerPrager.from_mohr_coulomb(E, NU, 0.0, angle, psi=psi, matching=match)
-            fo = StripFooting(strip_footing_mesh(comm, B, 2), mat, B, unit_weight=GAMMA, K0=jaky_k0(phi))
-            ctl = StepControl(dt=0.02, dt_max=0.1, dt_min=1e-7, max_cuts=12, max_wall_time=120, predictor="auto")
-            n_gamma[label] = fo.run(settle * B, ctl).limit_pressure / (0.5 * GAMMA * B)
+            n_gamma[label] = _n_gamma(comm, mat, 2, phi, settle * B)
         assert n_gamma["davis"] < n_gamma["psi0"] < n_gamma["assoc"], n_gamma
         assert n_gamma["psi0_assoc_formula"] < 0.9 * n_gamma["psi0"], n_gamma
         ratios.append(n_gamma["psi0"] / n_gamma["assoc"])
@@ -96,7 +102,6 @@ def test_bbar_underestimates_nonassociated_c0_footing_on_coarse_meshes(comm):
     (README, "Plane-strain match and non-associated flow").  A weightless c-phi soil (phi = 20 deg)
     shows no such anomaly (one-off, n = 2 and 4: p/c = 13.7-14.0 with B-bar, 14.4-15.0 pointwise,
     against the Davis estimate 13.0 and the exact associated 14.8)."""
-    from rollsim.solver import StepControl, StripFooting, strip_footing_mesh
     phi = 30 * DEG
     cones = {"psi0": DruckerPrager.from_mohr_coulomb(E, NU, 0.0, phi, psi=0.0, matching="plane_strain_flow"),
              "davis": DruckerPrager.from_mohr_coulomb(E, NU, 0.0, math.atan(math.sin(phi)), psi=None,
@@ -104,10 +109,8 @@ def test_bbar_underestimates_nonassociated_c0_footing_on_coarse_meshes(comm):
     n_gamma = {}
     for n, strain, cone in ((2, "cell-average", "psi0"), (2, "cell-average", "davis"), (4, "cell-average", "psi0"),
                             (2, "pointwise", "davis"), (2, "pointwise", "psi0"), (4, "pointwise", "psi0")):
-        fo = StripFooting(strip_footing_mesh(comm, B, n, diagonal="right"), cones[cone], B, unit_weight=GAMMA,
-                          K0=jaky_k0(phi), volumetric_strain=strain)
-        ctl = StepControl(dt=0.02, dt_max=0.1, dt_min=1e-7, max_cuts=12, max_wall_time=120, predictor="auto")
-        n_gamma[n, strain, cone] = fo.run(0.005 * B, ctl).limit_pressure / (0.5 * GAMMA * B)
+        n_gamma[n, strain, cone] = _n_gamma(comm, cones[cone], n, phi, 0.005 * B, diagonal="right",
+                                            volumetric_strain=strain)
     bbar = [n_gamma[n, "cell-average", "psi0"] for n in (2, 4)]
     assert bbar[0] < 0.8 * n_gamma[2, "cell-average", "davis"] and bbar[1] > 1.2 * bbar[0], n_gamma
     point = [n_gamma[n, "pointwise", "psi0"] for n in (2, 4)]
