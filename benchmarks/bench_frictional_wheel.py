@@ -25,6 +25,7 @@ import time
 
 from mpi4py import MPI
 
+from _bench import add_volumetric_strain
 from rollsim.geometry import CylinderWheel, MeshOptions, build_soil_block, indentation_block
 from rollsim.solver import DruckerPrager, SolverDivergedError, StepControl
 from rollsim.solver.indentation import WheelIndentation
@@ -41,13 +42,13 @@ def control(max_wall: float) -> StepControl:
 
 
 def run(comm, phi_deg, c_reg, *, match="plane_strain", alpha=1.0, accuracy="fast", s_end=0.1, max_wall=240.0,
-        relaxation_length=0.0):
+        relaxation_length=0.0, volumetric_strain="pointwise"):
     phi = math.radians(phi_deg)
     mat = DruckerPrager.from_mohr_coulomb(40e6, 0.35, c_reg, phi, psi=0.0, matching=match)
     t0 = time.perf_counter()
     tm = build_soil_block(comm, indentation_block(D), MeshOptions.from_accuracy(D, accuracy))
     ind = WheelIndentation(tm, CylinderWheel(D, B, B / 12), mat, gamma=GAMMA, friction=MU, penalty=alpha,
-                           relaxation_length=relaxation_length)
+                           relaxation_length=relaxation_length, volumetric_strain=volumetric_strain)
     ind.gravity_step()
     status = "ok"
     try:
@@ -58,7 +59,7 @@ def run(comm, phi_deg, c_reg, *, match="plane_strain", alpha=1.0, accuracy="fast
     bc = {f"{r:g}": float(wheel_forces(r * D, Wheel(D, B), Soil(0.0, phi, GAMMA), Options(mode="indentation")).QV)
           for r in REPORT}
     return {"phi_deg": phi_deg, "c_reg_Pa": c_reg, "relaxation_length_m": relaxation_length, "match": match,
-            "alpha": alpha, "accuracy": accuracy,
+            "alpha": alpha, "accuracy": accuracy, "volumetric_strain": volumetric_strain,
             "dofs": ind.n_dofs, "status": status, "s_over_d_reached": ind.sinkage / D, "steps": len(ind.steps),
             "newton_iterations": ind.newton_iterations, "cuts": ind.cuts,
             "wall_s": comm.allreduce(time.perf_counter() - t0, op=MPI.MAX), "QV_N": qv, "model_QV_N": bc,
@@ -136,7 +137,9 @@ def main():
     ap.add_argument("--creg", type=float, nargs="+", default=[1.0], help="regularising cohesion(s), kPa (0 = none)")
     ap.add_argument("--relaxation-length", type=float, nargs="+", default=[0.0],
                     help="Duvaut-Lions relaxation length(s), mm of sinkage (0 = rate-independent)")
-    ap.add_argument("--match", default="plane_strain", choices=["plane_strain", "plane_strain_flow", "compression", "extension"])
+    ap.add_argument("--match", default="plane_strain",
+                    choices=["plane_strain", "plane_strain_flow", "compression", "extension"])
+    add_volumetric_strain(ap)
     ap.add_argument("--alpha", type=float, default=1.0, help="contact penalty factor alpha (kappa = alpha E/h)")
     ap.add_argument("--accuracy", default="fast")
     ap.add_argument("--s-end", type=float, default=0.1, help="final s/d")
@@ -149,7 +152,8 @@ def main():
         for c in args.creg:
             for ell in args.relaxation_length:
                 r = run(comm, phi, c * 1e3, match=args.match, alpha=args.alpha, accuracy=args.accuracy,
-                        s_end=args.s_end, max_wall=args.max_wall, relaxation_length=ell * 1e-3)
+                        s_end=args.s_end, max_wall=args.max_wall, relaxation_length=ell * 1e-3,
+                        volumetric_strain=args.volumetric_strain)
                 results.append(r)
                 if comm.rank == 0:
                     print(f"phi {phi:g} c_reg {c:g} kPa L {ell:g} mm: {r['status']}, {r['steps']} steps, "
