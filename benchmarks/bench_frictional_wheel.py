@@ -27,6 +27,7 @@ from mpi4py import MPI
 
 from _bench import add_volumetric_strain
 from rollsim.geometry import CylinderWheel, MeshOptions, build_soil_block, indentation_block
+from rollsim.scene import DEFAULT_VOLUMETRIC_STRAIN
 from rollsim.solver import DruckerPrager, SolverDivergedError, StepControl
 from rollsim.solver.indentation import WheelIndentation
 from rollsim.studies.bearing_capacity import Options, Soil, Wheel, wheel_forces
@@ -42,7 +43,7 @@ def control(max_wall: float) -> StepControl:
 
 
 def run(comm, phi_deg, c_reg, *, match="plane_strain", alpha=1.0, accuracy="fast", s_end=0.1, max_wall=240.0,
-        relaxation_length=0.0, volumetric_strain="pointwise"):
+        relaxation_length=0.0, volumetric_strain=DEFAULT_VOLUMETRIC_STRAIN):
     phi = math.radians(phi_deg)
     mat = DruckerPrager.from_mohr_coulomb(40e6, 0.35, c_reg, phi, psi=0.0, matching=match)
     t0 = time.perf_counter()
