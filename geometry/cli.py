@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import argparse
 import pathlib
+from typing import Callable
 
 from mpi4py import MPI
 
@@ -39,29 +40,39 @@ def _options(args, hexahedra: bool | None = None) -> MeshOptions:
                                        args.hexahedra if hexahedra is None else hexahedra)
 
 
-def _build_example(comm: MPI.Comm, args, msh: pathlib.Path) -> tuple[TaggedMesh, tuple]:
+def _plan_example(args) -> tuple[Callable, tuple]:
+    """The validated build of a named example: ``(build(comm, msh) -> TaggedMesh, camera view)``."""
     d = args.diameter
     if args.name == "indentation":
-        return build_soil_block(comm, indentation_block(d, layers=(0.25,)), _options(args), msh), VIEW_QUARTER
+        block, opts = indentation_block(d, layers=(0.25,)), _options(args)
+        return lambda comm, msh: build_soil_block(comm, block, opts, msh), VIEW_QUARTER
     if args.name == "rolling":
-        return build_soil_block(comm, rolling_block(d, layers=(0.3,)), _options(args), msh), VIEW_SOIL
+        block, opts = rolling_block(d, layers=(0.3,)), _options(args)
+        return lambda comm, msh: build_soil_block(comm, block, opts, msh), VIEW_SOIL
     if args.name == "tire":
-        return build_tire(comm, pneumatic_tire(d), _options(args, hexahedra=True), msh), VIEW_TIRE
+        tire, opts = pneumatic_tire(d), _options(args, hexahedra=True)
+        return lambda comm, msh: build_tire(comm, tire, opts, msh), VIEW_TIRE
     if args.name == "plane-strain":
-        block = PlaneStrainBlock(5 * d, 5 * d, 0.5 * d, d, d, symmetric=True)
-        return build_plane_strain_block(comm, block, _options(args), msh), VIEW_SOIL
+        plane, opts = PlaneStrainBlock(5 * d, 5 * d, 0.5 * d, d, d, symmetric=True), _options(args)
+        return lambda comm, msh: build_plane_strain_block(comm, plane, opts, msh), VIEW_SOIL
     wheel = CylinderWheel(d, 0.4 * d, 0.05 * d) if args.name == "cylinder-wheel" else TorusWheel(d, 0.3 * d)
-    return build_wheel_surface(comm, wheel, _options(args).fine_size, msh), VIEW_TIRE
+    size = _options(args).fine_size
+    return lambda comm, msh: build_wheel_surface(comm, wheel, size, msh), VIEW_TIRE
 
 
-def _build_block(comm: MPI.Comm, args, msh: pathlib.Path) -> TaggedMesh:
-    layers = tuple(float(t) for t in args.layers.split(",")) if args.layers else ()
+def _plan_block(args) -> tuple[Callable, tuple]:
+    """The validated build of a soil block from flags: ``(build(comm, msh) -> TaggedMesh, view)``."""
+    try:
+        layers = tuple(float(t) for t in args.layers.split(",")) if args.layers else ()
+    except ValueError:
+        raise ValueError(f"--layers: expected comma-separated numbers, got {args.layers!r}") from None
     if args.kind == "rolling":
         block = rolling_block(args.diameter, args.length, args.half_width, args.depth, args.cut, layers,
                               args.stiff_length)
     else:
         block = indentation_block(args.diameter, args.half_width, args.depth, args.cut, layers)
-    return build_soil_block(comm, block, _options(args), msh)
+    opts = _options(args)
+    return lambda comm, msh: build_soil_block(comm, block, opts, msh), VIEW_SOIL
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -95,18 +106,16 @@ def main(argv: list[str] | None = None, comm: MPI.Comm = MPI.COMM_WORLD) -> int:
     """Build, write ``<out>/<name>.msh``, ``.xdmf`` (mesh + tags) and ``.png``; returns the exit code."""
     args = _parser().parse_args(argv)
     setup_logging(comm, quiet=args.quiet)
+    try:  # every flag is checked before anything is written
+        build, view = _plan_example(args) if args.command == "example" else _plan_block(args)
+    except ValueError as exc:
+        log.error("rollsim.geometry: %s", exc)
+        return 2
     if comm.rank == 0:
         args.out.mkdir(parents=True, exist_ok=True)
     comm.barrier()
     msh = args.out / f"{args.name}.msh"
-    try:
-        if args.command == "example":
-            tagged, view = _build_example(comm, args, msh)
-        else:
-            tagged, view = _build_block(comm, args, msh), VIEW_SOIL
-    except ValueError as exc:
-        log.error("rollsim.geometry: %s", exc)
-        return 2
+    tagged = build(comm, msh)
     compat.write_tagged_mesh(comm, msh.with_suffix(".xdmf"), tagged.mesh, tagged.cell_tags, tagged.facet_tags)
     log.info("cell tags %s; facet tags %s", tagged.cell_names, tagged.facet_names)
     log.info("wrote %s and %s", msh, msh.with_suffix(".xdmf"))

@@ -9,10 +9,13 @@ expected. ``ton`` is the short ton (2000 lb).
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass
 from functools import lru_cache
 
 STANDARD_GRAVITY = 9.80665  # m/s^2
+
+_DECIMAL_COMMA = re.compile(r"\d\s*,\s*\d")  # "1,5 kPa", "133,5 kN", "0,05", "133,500 N"
 
 
 class InputError(ValueError):
@@ -61,6 +64,8 @@ def to_si(value, kind: Kind, field: str) -> float:
     if isinstance(value, (int, float)):
         result = float(value)
     elif isinstance(value, str):
+        if _DECIMAL_COMMA.search(value):
+            raise InputError(field, f"use a decimal point, not a comma (and no thousands separators): {value!r}")
         try:
             result = float(value)  # a bare number is SI (degrees for angles)
         except ValueError:

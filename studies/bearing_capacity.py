@@ -58,8 +58,8 @@ class Soil:
     def __post_init__(self):
         _non_negative("c", self.c)
         _positive("gamma", self.gamma)
-        phi = np.asarray(self.phi)
-        if np.any(phi < 0) or np.any(phi >= np.pi / 2):
+        phi = np.asarray(self.phi, dtype=float)
+        if not np.all(np.isfinite(phi)) or np.any(phi < 0) or np.any(phi >= np.pi / 2):
             raise InputError("phi", "friction angle must be in [0, 90) deg")
 
 
