@@ -15,6 +15,7 @@ from mpi4py import MPI
 
 from rollsim.geometry.mesh import (MeshOptions, TaggedMesh, add_physical_groups, distribute, gmsh_model,
                                    log, set_order, size_options_off)
+from rollsim.mpi import root_block
 
 CUTS = ("full", "half", "quarter")
 
@@ -272,44 +273,47 @@ def build_soil_block(comm: MPI.Comm, block: SoilBlock, opts: MeshOptions, msh_pa
     """
     cell_names = facet_names = None
     with gmsh_model(comm, "soil_block") as model:
-        if model is not None:
-            ref = block.refined
-            (x_lo, x_hi), (y_lo, y_hi) = block.x_range, block.y_range
-            t = opts.transition if opts.hexahedra else None
-            gap = opts.fine_size
-            bottoms = block.layer_bottoms
-            axes = [
-                _breakpoints(x_lo, x_hi, [ref.x_min, ref.x_max] + ([] if block.x_stiff is None else [block.x_stiff]),
-                             [ref.x_min - t, ref.x_max + t] if t else [], gap),
-                _breakpoints(y_lo, y_hi, [-ref.half_width, ref.half_width],
-                             [-ref.half_width - t, ref.half_width + t] if t else [], gap),
-                _breakpoints(-block.depth, 0.0, bottoms[:-1] + [-ref.depth], [-ref.depth - t] if t else [], gap),
-            ]
-            _build_grid(model, axes)
-            zones = [(ref.x_min, ref.x_max), (-ref.half_width, ref.half_width), (-ref.depth, 0.0)]
-            if opts.hexahedra:
-                _set_transfinite(model, axes, zones, opts)
-            else:
-                _size_field(model, [ref.x_min, ref.x_max, -ref.half_width, ref.half_width,
-                                    -ref.depth, opts.transition], opts)
-            cells: dict[str, list[int]] = {f"layer_{k}": [] for k in range(1, len(bottoms) + 1)}
-            cells["stiff_zone"] = []
-            for _, volume in model.getEntities(3):
-                x, _, z = model.occ.getCenterOfMass(3, volume)
-                key = "stiff_zone" if block.x_stiff is not None and x < block.x_stiff else f"layer_{_layer_of(z, bottoms)}"
-                cells[key].append(volume)
-            planes = {(0, x_lo): "symmetry_x" if block.cut == "quarter" else "rear", (0, x_hi): "front",
-                      (1, y_lo): "side" if block.cut == "full" else "symmetry_y", (1, y_hi): "side",
-                      (2, 0.0): "top", (2, -block.depth): "bottom"}
-            facets = _classify_facets(model, 3, planes, [zones[0], zones[1]])
-            numbers = {**{f"layer_{k}": k for k in range(1, len(bottoms) + 1)}, "stiff_zone": STIFF_ZONE_TAG}
-            cell_names = add_physical_groups(model, 3, cells, numbers)
-            facet_names = add_physical_groups(model, 2, facets, FACET_TAGS)
-            model.mesh.generate(3)
-            set_order(opts.order)
-            log.info("soil block (%s, %d layer(s)%s): %s", block.cut, len(bottoms),
-                     ", stiff zone" if block.x_stiff is not None else "",
-                     "hexahedra" if opts.hexahedra else "tetrahedra")
+        with root_block(comm) as on_root:  # a failure here is raised on every rank
+            if on_root:
+                ref = block.refined
+                (x_lo, x_hi), (y_lo, y_hi) = block.x_range, block.y_range
+                t = opts.transition if opts.hexahedra else None
+                gap = opts.fine_size
+                bottoms = block.layer_bottoms
+                axes = [
+                    _breakpoints(x_lo, x_hi,
+                                 [ref.x_min, ref.x_max] + ([] if block.x_stiff is None else [block.x_stiff]),
+                                 [ref.x_min - t, ref.x_max + t] if t else [], gap),
+                    _breakpoints(y_lo, y_hi, [-ref.half_width, ref.half_width],
+                                 [-ref.half_width - t, ref.half_width + t] if t else [], gap),
+                    _breakpoints(-block.depth, 0.0, bottoms[:-1] + [-ref.depth], [-ref.depth - t] if t else [], gap),
+                ]
+                _build_grid(model, axes)
+                zones = [(ref.x_min, ref.x_max), (-ref.half_width, ref.half_width), (-ref.depth, 0.0)]
+                if opts.hexahedra:
+                    _set_transfinite(model, axes, zones, opts)
+                else:
+                    _size_field(model, [ref.x_min, ref.x_max, -ref.half_width, ref.half_width,
+                                        -ref.depth, opts.transition], opts)
+                cells: dict[str, list[int]] = {f"layer_{k}": [] for k in range(1, len(bottoms) + 1)}
+                cells["stiff_zone"] = []
+                for _, volume in model.getEntities(3):
+                    x, _, z = model.occ.getCenterOfMass(3, volume)
+                    stiff = block.x_stiff is not None and x < block.x_stiff
+                    key = "stiff_zone" if stiff else f"layer_{_layer_of(z, bottoms)}"
+                    cells[key].append(volume)
+                planes = {(0, x_lo): "symmetry_x" if block.cut == "quarter" else "rear", (0, x_hi): "front",
+                          (1, y_lo): "side" if block.cut == "full" else "symmetry_y", (1, y_hi): "side",
+                          (2, 0.0): "top", (2, -block.depth): "bottom"}
+                facets = _classify_facets(model, 3, planes, [zones[0], zones[1]])
+                numbers = {**{f"layer_{k}": k for k in range(1, len(bottoms) + 1)}, "stiff_zone": STIFF_ZONE_TAG}
+                cell_names = add_physical_groups(model, 3, cells, numbers)
+                facet_names = add_physical_groups(model, 2, facets, FACET_TAGS)
+                model.mesh.generate(3)
+                set_order(opts.order)
+                log.info("soil block (%s, %d layer(s)%s): %s", block.cut, len(bottoms),
+                         ", stiff zone" if block.x_stiff is not None else "",
+                         "hexahedra" if opts.hexahedra else "tetrahedra")
         return distribute(model, comm, 3, 3, cell_names, facet_names, msh_path)
 
 
@@ -321,27 +325,29 @@ def build_plane_strain_block(comm: MPI.Comm, block: PlaneStrainBlock, opts: Mesh
     """
     cell_names = facet_names = None
     with gmsh_model(comm, "plane_strain_block") as model:
-        if model is not None:
-            x_lo = 0.0 if block.symmetric else -block.half_width
-            a, w, dr = block.contact_half_width, block.refined_half_width, block.refined_depth
-            t = opts.transition if opts.hexahedra else None
-            bottoms = block.layer_bottoms
-            axes = [_breakpoints(x_lo, block.half_width, [-a, a, -w, w], [-w - t, w + t] if t else [], opts.fine_size),
-                    _breakpoints(-block.depth, 0.0, bottoms[:-1] + [-dr], [-dr - t] if t else [], opts.fine_size)]
-            _build_grid(model, axes)
-            zones = [(-w, w), (-dr, 0.0)]
-            if opts.hexahedra:
-                _set_transfinite(model, axes, zones, opts)
-            else:
-                _size_field(model, [-w, w, -dr, opts.transition, -1.0, 1.0], opts)
-            cells = {f"layer_{k}": [] for k in range(1, len(bottoms) + 1)}
-            for _, surface in model.getEntities(2):
-                cells[f"layer_{_layer_of(model.occ.getCenterOfMass(2, surface)[1], bottoms)}"].append(surface)
-            planes = {(0, x_lo): "symmetry_x" if block.symmetric else "side", (0, block.half_width): "side",
-                      (1, 0.0): "top", (1, -block.depth): "bottom"}
-            facets = _classify_facets(model, 2, planes, [(-a, a)])
-            cell_names = add_physical_groups(model, 2, cells, {name: k for k, name in enumerate(cells, start=1)})
-            facet_names = add_physical_groups(model, 1, facets, FACET_TAGS)
-            model.mesh.generate(2)
-            set_order(opts.order)
+        with root_block(comm) as on_root:  # a failure here is raised on every rank
+            if on_root:
+                x_lo = 0.0 if block.symmetric else -block.half_width
+                a, w, dr = block.contact_half_width, block.refined_half_width, block.refined_depth
+                t = opts.transition if opts.hexahedra else None
+                bottoms = block.layer_bottoms
+                axes = [_breakpoints(x_lo, block.half_width, [-a, a, -w, w], [-w - t, w + t] if t else [],
+                                     opts.fine_size),
+                        _breakpoints(-block.depth, 0.0, bottoms[:-1] + [-dr], [-dr - t] if t else [], opts.fine_size)]
+                _build_grid(model, axes)
+                zones = [(-w, w), (-dr, 0.0)]
+                if opts.hexahedra:
+                    _set_transfinite(model, axes, zones, opts)
+                else:
+                    _size_field(model, [-w, w, -dr, opts.transition, -1.0, 1.0], opts)
+                cells = {f"layer_{k}": [] for k in range(1, len(bottoms) + 1)}
+                for _, surface in model.getEntities(2):
+                    cells[f"layer_{_layer_of(model.occ.getCenterOfMass(2, surface)[1], bottoms)}"].append(surface)
+                planes = {(0, x_lo): "symmetry_x" if block.symmetric else "side", (0, block.half_width): "side",
+                          (1, 0.0): "top", (1, -block.depth): "bottom"}
+                facets = _classify_facets(model, 2, planes, [(-a, a)])
+                cell_names = add_physical_groups(model, 2, cells, {name: k for k, name in enumerate(cells, start=1)})
+                facet_names = add_physical_groups(model, 1, facets, FACET_TAGS)
+                model.mesh.generate(2)
+                set_order(opts.order)
         return distribute(model, comm, 2, 2, cell_names, facet_names, msh_path)

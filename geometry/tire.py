@@ -19,6 +19,7 @@ from mpi4py import MPI
 
 from rollsim.geometry.mesh import (MeshOptions, TaggedMesh, add_physical_groups, distribute, gmsh_model,
                                    log, set_order)
+from rollsim.mpi import root_block
 
 TREAD_THICKNESS = 0.046  # x d
 TRANSITION_THICKNESS = 0.6  # x tread thickness
@@ -176,53 +177,54 @@ def build_tire(comm: MPI.Comm, tire: PneumaticTire, opts: MeshOptions, msh_path=
     """
     cell_names = facet_names = None
     with gmsh_model(comm, "tire") as model:
-        if model is not None:
-            occ = model.occ
-            xc, _, zc = tire.centre
-            faces = _profile(occ, tire)
-            profile = [(2, tag) for _, tag in faces]
-            _, pieces = occ.fragment(profile, [])
-            profile = [piece[0] for piece in pieces]
-            occ.rotate(profile, 0, 0, 0, 1, 1, 1, 2 * math.pi / 3)  # (x, y, 0) -> (0, x, y)
-            occ.translate(profile, xc, 0, zc)
-            # quarter turns revolved from the previous turn's end faces, so that neighbours share faces
-            turns, source = [], profile
-            for _ in range(TIRE_CUTS[tire.cut]):
-                out = occ.revolve(source, xc, 0, zc, 0, 1, 0, math.pi / 2)
-                body = [i for i, (dim, _) in enumerate(out) if dim == 3]  # each preceded by its end face
-                turns.append([out[i] for i in body])
-                source = [out[i - 1] for i in body]
-            if tire.cut != "quarter":  # close the full turn: glue the last turn to the first
-                _, glued = occ.fragment(turns[-1], turns[0])
-                turns[-1], turns[0] = [g[0] for g in glued[:len(profile)]], [g[0] for g in glued[len(profile):]]
-            occ.synchronize()
-            cells = {name: [] for name in TIRE_CELL_TAGS}
-            for turn in turns:
-                for (name, _), (_, volume) in zip(faces, turn):
-                    cells[name].append(volume)
-            facets = {name: [] for name in TIRE_FACET_TAGS}
-            tol = 1e-6 * tire.diameter
-            for _, surface in model.getBoundary(model.getEntities(3), combined=True, oriented=False):
-                lo, hi = model.getParametrizationBounds(2, abs(surface))
-                x, y, z = model.getValue(2, abs(surface), [(lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2])
-                box = np.array(model.getBoundingBox(2, abs(surface))).reshape(2, 3)
-                r = math.hypot(x - xc, z - zc)
-                if box[1, 1] - box[0, 1] < tol and abs(y) < tol and tire.cut != "full":
-                    name = "symmetry_y"
-                elif box[1, 0] - box[0, 0] < tol and abs(x - xc) < tol and tire.cut == "quarter":
-                    name = "symmetry_x"
-                elif abs(r - tire.hub_diameter / 2) < tol:
-                    name = "hub_rim"
-                elif tire.on_outer_surface(np.array([r]), np.array([y]), tol)[0]:
-                    name = "outer_surface"
-                else:
-                    name = "inner_surface"
-                facets[name].append(abs(surface))
-            _transfinite_tire(model, tire, opts)
-            cell_names = add_physical_groups(model, 3, cells, TIRE_CELL_TAGS)
-            facet_names = add_physical_groups(model, 2, facets, TIRE_FACET_TAGS)
-            model.mesh.generate(3)
-            set_order(opts.order)
-            log.info("tire (%s): d = %g m, b = %g m, hub %g m", tire.cut, tire.diameter, tire.width,
-                     tire.hub_diameter)
+        with root_block(comm) as on_root:  # a failure here is raised on every rank
+            if on_root:
+                occ = model.occ
+                xc, _, zc = tire.centre
+                faces = _profile(occ, tire)
+                profile = [(2, tag) for _, tag in faces]
+                _, pieces = occ.fragment(profile, [])
+                profile = [piece[0] for piece in pieces]
+                occ.rotate(profile, 0, 0, 0, 1, 1, 1, 2 * math.pi / 3)  # (x, y, 0) -> (0, x, y)
+                occ.translate(profile, xc, 0, zc)
+                # quarter turns revolved from the previous turn's end faces, so that neighbours share faces
+                turns, source = [], profile
+                for _ in range(TIRE_CUTS[tire.cut]):
+                    out = occ.revolve(source, xc, 0, zc, 0, 1, 0, math.pi / 2)
+                    body = [i for i, (dim, _) in enumerate(out) if dim == 3]  # each preceded by its end face
+                    turns.append([out[i] for i in body])
+                    source = [out[i - 1] for i in body]
+                if tire.cut != "quarter":  # close the full turn: glue the last turn to the first
+                    _, glued = occ.fragment(turns[-1], turns[0])
+                    turns[-1], turns[0] = [g[0] for g in glued[:len(profile)]], [g[0] for g in glued[len(profile):]]
+                occ.synchronize()
+                cells = {name: [] for name in TIRE_CELL_TAGS}
+                for turn in turns:
+                    for (name, _), (_, volume) in zip(faces, turn):
+                        cells[name].append(volume)
+                facets = {name: [] for name in TIRE_FACET_TAGS}
+                tol = 1e-6 * tire.diameter
+                for _, surface in model.getBoundary(model.getEntities(3), combined=True, oriented=False):
+                    lo, hi = model.getParametrizationBounds(2, abs(surface))
+                    x, y, z = model.getValue(2, abs(surface), [(lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2])
+                    box = np.array(model.getBoundingBox(2, abs(surface))).reshape(2, 3)
+                    r = math.hypot(x - xc, z - zc)
+                    if box[1, 1] - box[0, 1] < tol and abs(y) < tol and tire.cut != "full":
+                        name = "symmetry_y"
+                    elif box[1, 0] - box[0, 0] < tol and abs(x - xc) < tol and tire.cut == "quarter":
+                        name = "symmetry_x"
+                    elif abs(r - tire.hub_diameter / 2) < tol:
+                        name = "hub_rim"
+                    elif tire.on_outer_surface(np.array([r]), np.array([y]), tol)[0]:
+                        name = "outer_surface"
+                    else:
+                        name = "inner_surface"
+                    facets[name].append(abs(surface))
+                _transfinite_tire(model, tire, opts)
+                cell_names = add_physical_groups(model, 3, cells, TIRE_CELL_TAGS)
+                facet_names = add_physical_groups(model, 2, facets, TIRE_FACET_TAGS)
+                model.mesh.generate(3)
+                set_order(opts.order)
+                log.info("tire (%s): d = %g m, b = %g m, hub %g m", tire.cut, tire.diameter, tire.width,
+                         tire.hub_diameter)
         return distribute(model, comm, 3, 3, cell_names, facet_names, msh_path)

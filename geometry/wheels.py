@@ -14,6 +14,7 @@ import numpy as np
 from mpi4py import MPI
 
 from rollsim.geometry.mesh import TaggedMesh, add_physical_groups, distribute, gmsh_model, size_options_off
+from rollsim.mpi import root_block
 
 
 def _meridian(points: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -129,15 +130,16 @@ def build_wheel_surface(comm: MPI.Comm, wheel: CylinderWheel | TorusWheel, size:
     checks; ``size`` is the element size, m."""
     names = None
     with gmsh_model(comm, "wheel_surface") as model:
-        if model is not None:
-            volumes = wheel._add_to(model.occ)
-            model.occ.synchronize()
-            surfaces = [s for _, s in model.getBoundary(volumes, oriented=False)]
-            names = add_physical_groups(model, 2, {"surface": surfaces}, {"surface": 1})
-            size_options_off()
-            model.mesh.setSize(model.getEntities(0), size)
-            gmsh.option.setNumber("Mesh.MeshSizeMax", size)
-            gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 12)
-            model.mesh.generate(2)
-            model.mesh.setOrder(2)
+        with root_block(comm) as on_root:  # a failure here is raised on every rank
+            if on_root:
+                volumes = wheel._add_to(model.occ)
+                model.occ.synchronize()
+                surfaces = [s for _, s in model.getBoundary(volumes, oriented=False)]
+                names = add_physical_groups(model, 2, {"surface": surfaces}, {"surface": 1})
+                size_options_off()
+                model.mesh.setSize(model.getEntities(0), size)
+                gmsh.option.setNumber("Mesh.MeshSizeMax", size)
+                gmsh.option.setNumber("Mesh.MeshSizeFromCurvature", 12)
+                model.mesh.generate(2)
+                model.mesh.setOrder(2)
         return distribute(model, comm, 3, 2, names, {}, msh_path)

@@ -36,3 +36,31 @@ def test_geometry_cli_writes_nothing_on_bad_flags(tmp_mpi_path, flags):
     out = tmp_mpi_path / "geometry"
     assert geometry_main(flags + ["--out", str(out), "--no-png", "-q"], comm=MPI.COMM_WORLD) == 2
     assert not out.exists()
+
+
+@pytest.mark.timeout(120)
+def test_gmsh_build_failure_on_rank0_fails_every_rank(comm, monkeypatch):
+    """A failure while rank 0 builds the gmsh model reaches every rank (none waits in the
+    distribution that follows), with the same type and message."""
+    import rollsim.geometry.soil as soil
+
+    def broken_grid(model, axes):
+        raise ValueError("injected failure while meshing")
+
+    monkeypatch.setattr(soil, "_build_grid", broken_grid)
+    block = soil.indentation_block(1.0)
+    with pytest.raises(ValueError, match="injected failure while meshing"):
+        soil.build_soil_block(comm, block, soil.MeshOptions.from_accuracy(1.0, "fast"))
+
+
+def test_root_block_passes_on_an_unpicklable_exception(comm):
+    from rollsim.mpi import RootError, root_block
+
+    class LocalError(Exception):  # a local class cannot be pickled
+        pass
+
+    expected = LocalError if comm.rank == 0 else RootError
+    with pytest.raises(expected, match="local failure"):
+        with root_block(comm) as on_root:
+            if on_root:
+                raise LocalError("local failure")
