@@ -6,7 +6,7 @@ import json
 
 import numpy as np
 
-from rollsim.scene import DEFAULT_VOLUMETRIC_STRAIN, VOLUMETRIC_STRAINS
+from rollsim.solver.options import DEFAULT_VOLUMETRIC_STRAIN, VOLUMETRIC_STRAINS
 
 
 def dump_json(comm, path: str | None, payload: dict) -> None:

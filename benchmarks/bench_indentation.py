@@ -32,7 +32,7 @@ from mpi4py import MPI
 from _bench import add_volumetric_strain
 
 from rollsim.geometry import CylinderWheel, MeshOptions, build_soil_block, indentation_block
-from rollsim.scene import DEFAULT_VOLUMETRIC_STRAIN, LINEAR_SOLVERS
+from rollsim.solver.options import DEFAULT_VOLUMETRIC_STRAIN, LINEAR_SOLVERS
 from rollsim.solver import DruckerPrager, SolverDivergedError, StepControl, VonMises
 from rollsim.solver.indentation import WheelIndentation
 from rollsim.studies.bearing_capacity import Options, Soil, Wheel, wheel_forces

@@ -5,7 +5,7 @@
 
 Cases of ``shared/data/cases_layered.csv`` (three layers of 0.4 d over a fixed base; Mn/DOT roller,
 d = 1.524 m, b = 0.4572 m, mu = 0.8, nu = 0.35, gamma = 20 kN/m^3; Drucker-Prager per layer),
-protocol rolling-constant-load at Q_V = 133.5 kN through ``run_rolling`` (run directories under
+protocol rolling-constant-load at Q_V = 133.5 kN through ``run_scene`` (run directories under
 ``--out-dir``), ``--accuracy`` preset, half block ``--length`` x ``--half-width`` in d and
 deep enough for the layers (1.2 d + ``--below`` d).
 
@@ -34,7 +34,7 @@ from _bench import dump_json
 
 from rollsim.scene import parse_scene
 from rollsim.solver.materials import dp_to_mc
-from rollsim.solver.rolling import run_rolling
+from rollsim.solver.run import run_scene
 from rollsim.studies.bearing_capacity import Soil, Wheel
 from rollsim.studies.layered import influence_depth
 
@@ -123,7 +123,7 @@ def main(argv=None) -> int:
         t0 = time.perf_counter()
         row = rows[case]
         scene = scene_of(row, args.accuracy, args.travel * D, 1e-3 * args.relaxation_length)
-        summary = run_rolling(scene, pathlib.Path(args.out_dir) / f"case{case}", comm, progress=False,
+        summary = run_scene(scene, pathlib.Path(args.out_dir) / f"case{case}", comm, progress=False,
                               block={"length": args.length, "half_width": args.half_width,
                                      "depth": 1.2 + args.below, "stiff_length": args.stiff})
         ss = summary.get("steady_state", {})

@@ -39,7 +39,8 @@ from _bench import add_volumetric_strain, dump_json
 
 from rollsim.geometry import CylinderWheel, MeshOptions, build_soil_block, rolling_block
 from rollsim.solver import SolverDivergedError, VonMises
-from rollsim.solver.rolling import STEADY_MIN_TRAVEL, WheelRolling, _rut
+from rollsim.solver.drivers.rolling_constant_load import measure_rut
+from rollsim.solver.rolling import STEADY_MIN_TRAVEL, WheelRolling
 
 D, B, GAMMA = 1.524, 0.4572, 20e3
 
@@ -68,7 +69,7 @@ def constant_load(comm, mu, args):
         # the rolled steps only: the lift-off moves the wheel vertically without a torque balance
         max_rel_moment = max(abs(st.moment) / (load * D) for st in roll.steps if st.travel > 0)
         roll.lift()
-        rut = _rut(roll, ss, args.stiff * D, L)
+        rut = measure_rut(roll, ss, args.stiff * D, L)
         out.update(steady=ss.reached, s_cl=ss.sinkage, QH_cl=ss.QH, travel_at_steady=ss.travel,
                    rut_depth=rut["rut_depth_m"], rebound=rut["rebound_m"], max_rel_moment=max_rel_moment,
                    trials=int(sum(st.trials for st in roll.steps)))

@@ -25,7 +25,7 @@ from mpi4py import MPI
 from _bench import add_volumetric_strain
 
 from rollsim.log import setup_logging
-from rollsim.scene import DEFAULT_VOLUMETRIC_STRAIN, VOLUMETRIC_STRAINS
+from rollsim.solver.options import DEFAULT_VOLUMETRIC_STRAIN, VOLUMETRIC_STRAINS
 from rollsim.solver import (DruckerPrager, StepControl, StripFooting, prandtl_nc, strip_footing_mesh,
                             von_mises_from_tresca)
 

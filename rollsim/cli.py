@@ -11,6 +11,7 @@ import json
 import math
 import sys
 
+from rollsim import __version__
 from rollsim.units import ANGLE, FLEXIBILITY, FORCE, LENGTH, PRESSURE, UNIT_WEIGHT, InputError, to_si
 
 EXIT_OK, EXIT_FAILURE, EXIT_INPUT, EXIT_NO_ANSWER = 0, 1, 2, 3
@@ -78,11 +79,14 @@ def _add_soil(p, *, c_default="0", phi_default="0"):
 
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="rollsim", description="Test-rolling simulation and design. " + UNITS_HELP)
+    parser.add_argument("--version", action="version", version=f"rollsim {__version__}")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
     common = _Parser(add_help=False)
     common.add_argument("--json", action="store_true", help="print one JSON object as the last line of stdout")
     common.add_argument("--quiet", action="store_true", help="no progress or notes on stderr")
-    common.add_argument("--verbose", action="store_true", help="also log every load step's Newton residuals")
+    common.add_argument("--verbose", action="store_true",
+                        help="also log every load step's Newton residuals and other libraries' messages "
+                             "(e.g. the form compiler's build steps)")
 
     p = sub.add_parser("predict", parents=[common], help="bearing-capacity model: load <-> sinkage",
                        description="Bearing-capacity wheel model: give --load to get the sinkage, or "
@@ -328,6 +332,7 @@ def _invert_record(args, wheel, gamma, load, c, phi, opts) -> dict:
 
     import numpy as np
 
+    from rollsim.files import atomic_path
     from rollsim.studies.bearing_capacity import strength_profile
     if (c is None) == (phi is None):
         raise InputError("--c", "with --record hold exactly one of --c or --phi fixed")
@@ -355,13 +360,11 @@ def _invert_record(args, wheel, gamma, load, c, phi, opts) -> dict:
     if args.out:
         out_path = pathlib.Path(args.out)
         out_path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = out_path.with_suffix(out_path.suffix + ".tmp")
-        with tmp.open("w", newline="") as f:
+        with atomic_path(out_path) as tmp, tmp.open("w", newline="") as f:
             w = csv.writer(f)
             w.writerow(["position_m", "sinkage_m", column, "pass"])
             for row in zip(prof.position, prof.sinkage, prof.strength * scale, prof.passes):
                 w.writerow([f"{row[0]:g}", f"{row[1]:g}", f"{row[2]:.6g}", "yes" if row[3] else "no"])
-        tmp.replace(out_path)
     n_fail = int((~prof.passes).sum())
     out = {"points": len(rows), "failing_points": n_fail, "verdict": "pass" if n_fail == 0 else "fail",
            f"min_{column}": float(np.nanmin(prof.strength) * scale) if np.any(np.isfinite(prof.strength)) else None,
@@ -527,6 +530,8 @@ def main(argv: list[str] | None = None) -> int:
     except RunFailed as e:
         code, payload = EXIT_FAILURE, e.payload
         print(f"rollsim: the run failed: {e}", file=sys.stderr)
+    except SystemExit as e:  # --help, --version
+        return e.code if isinstance(e.code, int) else EXIT_OK
     parallel = bool(argv) and argv[0] in PARALLEL_COMMANDS  # one JSON object per run, from rank 0
     if as_json and payload is not None and (not parallel or _rank() == 0):
         print(json.dumps(payload))

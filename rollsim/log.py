@@ -1,4 +1,8 @@
-"""Logging that speaks once under MPI: rank 0 logs, other ranks only warnings and errors."""
+"""Logging that speaks once under MPI: rank 0 logs, other ranks only warnings and errors.
+
+Other libraries' messages go through the root logger: only their warnings and errors are shown,
+unless ``verbose``.  (The form compiler's build steps - ``running build_ext``, the compiler
+command lines - are logged at INFO on the root logger, whose level the build itself raises.)"""
 from __future__ import annotations
 
 import logging
@@ -23,7 +27,13 @@ def get_logger(name: str | None = None) -> logging.Logger:
 
 
 def setup_logging(comm: MPI.Comm = MPI.COMM_WORLD, quiet: bool = False, verbose: bool = False) -> None:
-    """Configure the ``rollsim`` logger for a command-line run on ``comm``."""
+    """Configure the ``rollsim`` logger for a command-line run on ``comm``: progress at INFO
+    (WARNING when ``quiet``, DEBUG when ``verbose``), and other libraries' messages below WARNING
+    only when ``verbose``."""
+    other = logging.StreamHandler(sys.stderr)
+    other.addFilter(_RankFilter(comm.rank))
+    other.setLevel(logging.DEBUG if verbose else logging.WARNING)
+    logging.basicConfig(handlers=[other], format="%(name)s: %(message)s", force=True)
     logger = logging.getLogger(LOGGER_NAME)
     logger.handlers.clear()
     handler = logging.StreamHandler(sys.stderr)

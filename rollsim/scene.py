@@ -1,4 +1,4 @@
-"""Scene files (TOML, ``shared/spec/interfaces.md``): loading and validation, SI inside.
+"""Scene files (TOML; format: docs/scene.md): loading and validation, SI inside.
 
 ``load_scene(path) -> Scene``. Any bad value raises ``InputError`` whose field is
 the dotted key (``soil.layers[1].nu``); unknown keys are errors too, so a typo
@@ -12,30 +12,16 @@ import pathlib
 import tomllib
 from dataclasses import dataclass
 
+from rollsim.solver.options import (ACCURACIES, DEFAULT_ACCURACY, DEFAULT_KINEMATICS, DEFAULT_LINEAR_SOLVER,
+                                    DEFAULT_MATCH, DEFAULT_REGULARISING_COHESION, DEFAULT_RELAXATION_LENGTH,
+                                    DEFAULT_VOLUMETRIC_STRAIN, KINEMATICS, LINEAR_SOLVERS, MATCHES, PROTOCOLS,
+                                    VOLUMETRIC_STRAINS, default_volumetric_strain)
 from rollsim.units import (ANGLE, DIMENSIONLESS, FORCE, LENGTH, PRESSURE, UNIT_WEIGHT, InputError, Kind,
                            to_si)
 
 WHEEL_TYPES = ("rigid", "pneumatic")
 WHEEL_SHAPES = ("cylinder", "torus")
 SOIL_MODELS = ("von-mises", "drucker-prager", "mohr-coulomb")
-MATCHES = ("compression", "extension", "plane-strain", "plane-strain-flow")
-PROTOCOLS = ("indentation", "rolling-continuous", "rolling-constant-load")
-ACCURACIES = ("fast", "standard", "accurate")
-#: small strain, or incremental large deformation (the solver's ``PlasticityProblem(kinematics=...)``)
-KINEMATICS = ("small-strain", "updated-lagrangian")
-#: linear solver of the Newton iteration (the solver's ``PlasticityProblem(linear_solver=...)``):
-#: "auto" = direct LU up to 100 000 dofs, iterative (AMG-preconditioned GMRES) above
-LINEAR_SOLVERS = ("auto", "direct", "iterative")
-#: volumetric strain of the soil (the solver's ``PlasticityProblem(volumetric_strain=...)``):
-#: "cell-average" = B-bar (one volumetric constraint per cell: no locking under isochoric plastic
-#: flow), "pointwise" = plain strain at every quadrature point.  The solver classes default to
-#: "pointwise" (the benchmarks' figures were measured with it); scenes default per protocol, see
-#: :func:`default_volumetric_strain` (README, "Volumetric locking").
-VOLUMETRIC_STRAINS = ("cell-average", "pointwise")
-DEFAULT_VOLUMETRIC_STRAIN = "pointwise"
-#: Pa put in place of c = 0 in purely frictional layers (``[model] regularising_cohesion``; the
-#: solver's ``materials.C_REG_DEFAULT``); 0 keeps c = 0
-DEFAULT_REGULARISING_COHESION = 1.0e3
 TREAD_THICKNESS_RATIO = 0.046  # t_tread / d of the report's tire
 
 
@@ -88,21 +74,14 @@ class LoadingSpec:
 
 @dataclass(frozen=True)
 class ModelSpec:
-    accuracy: str = "standard"
-    kinematics: str = "small-strain"   # or "updated-lagrangian" (incremental large deformation)
-    linear_solver: str = "auto"        # or "direct" (MUMPS LU), "iterative" (GMRES + AMG)
+    """``[model]``: the solver options (choices and defaults: ``rollsim.solver.options``)."""
+
+    accuracy: str = DEFAULT_ACCURACY
+    kinematics: str = DEFAULT_KINEMATICS
+    linear_solver: str = DEFAULT_LINEAR_SOLVER
     volumetric_strain: str = DEFAULT_VOLUMETRIC_STRAIN   # parse_scene: default_volumetric_strain(protocol)
-    relaxation_length: float = 0.0     # m of the wheel's path (travel; sinkage in indentation); > 0: Duvaut-Lions
+    relaxation_length: float = DEFAULT_RELAXATION_LENGTH   # m of the wheel's path; > 0: Duvaut-Lions
     regularising_cohesion: float = DEFAULT_REGULARISING_COHESION   # Pa in place of c = 0; 0: c stays 0
-
-
-def default_volumetric_strain(protocol: str) -> str:
-    """The scene default of ``[model] volumetric_strain`` for a loading protocol: B-bar
-    ("cell-average") for indentation, where it removes the locking of the P2 tetrahedra (the
-    standard and accurate presets agree within 3 %); "pointwise" for rolling, whose figures were
-    measured with it and where B-bar changes the constant-load sinkage by up to 2x on the fast
-    preset (README, "Volumetric locking")."""
-    return "cell-average" if protocol == "indentation" else "pointwise"
 
 
 @dataclass(frozen=True)
@@ -234,7 +213,7 @@ def _layer(t: _Table, last: bool) -> LayerSpec:
                                      required=model != "von-mises", minimum=0.0)
         if strength["phi"] >= math.radians(90):
             raise InputError(t.key("phi"), "must be below 90 deg")
-        strength["match"] = t.choice("match", MATCHES, default="compression")
+        strength["match"] = t.choice("match", MATCHES, default=DEFAULT_MATCH)
     friction_angle = strength.get("phi_dp", strength.get("phi", 0.0))
     if (strength.get("c_dp", strength.get("c")) == 0) and friction_angle == 0:
         raise InputError(t.key("c_dp" if dp_given else "c"), "a soil without cohesion needs a friction angle")
@@ -283,12 +262,13 @@ def parse_scene(data: dict) -> Scene:
     soil = _soil(sections["soil"])
     loading = _loading(sections["loading"], wheel)
     model_table = _Table(top.raw("model", {}), "model")
-    model = ModelSpec(accuracy=model_table.choice("accuracy", ACCURACIES, default="standard"),
-                      kinematics=model_table.choice("kinematics", KINEMATICS, default="small-strain"),
-                      linear_solver=model_table.choice("linear_solver", LINEAR_SOLVERS, default="auto"),
+    model = ModelSpec(accuracy=model_table.choice("accuracy", ACCURACIES, default=DEFAULT_ACCURACY),
+                      kinematics=model_table.choice("kinematics", KINEMATICS, default=DEFAULT_KINEMATICS),
+                      linear_solver=model_table.choice("linear_solver", LINEAR_SOLVERS, default=DEFAULT_LINEAR_SOLVER),
                       volumetric_strain=model_table.choice("volumetric_strain", VOLUMETRIC_STRAINS,
                                                            default=default_volumetric_strain(loading.protocol)),
-                      relaxation_length=model_table.quantity("relaxation_length", LENGTH, default=0.0, minimum=0.0),
+                      relaxation_length=model_table.quantity("relaxation_length", LENGTH,
+                                                             default=DEFAULT_RELAXATION_LENGTH, minimum=0.0),
                       regularising_cohesion=model_table.quantity("regularising_cohesion", PRESSURE,
                                                                  default=DEFAULT_REGULARISING_COHESION, minimum=0.0))
     if model.regularising_cohesion == 0:

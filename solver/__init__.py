@@ -26,7 +26,7 @@ _LAZY = {
     "RigidWheelContact": "contact", "Circle": "contact", "WheelForces": "contact",
     "WheelIndentation": "indentation", "IndentationStep": "indentation", "LoadControlResult": "indentation",
     "WheelRolling": "rolling", "RollingStep": "rolling", "SteadyState": "rolling",
-    "run_scene": "run", "FieldWriter": "fields",
+    "run_scene": "run", "FieldWriter": "fields", "DRIVERS": "drivers",
 }
 
 

@@ -16,8 +16,8 @@ from mpi4py import MPI
 from petsc4py import PETSc
 
 from rollsim.log import get_logger
-from rollsim.scene import DEFAULT_VOLUMETRIC_STRAIN
 
+from .options import DEFAULT_VOLUMETRIC_STRAIN
 from .problem import PlasticityProblem
 from .stepping import StepControl, solve_load_path
 

@@ -27,7 +27,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
 import pathlib
 import time
 from dataclasses import dataclass, field
@@ -38,11 +37,12 @@ import ufl
 from dolfinx import fem
 from mpi4py import MPI
 
+from rollsim.files import atomic_path, atomic_write_text
 from rollsim.log import get_logger
-from rollsim.scene import DEFAULT_VOLUMETRIC_STRAIN
 
 from . import checkpoint
 from .contact import RigidWheelContact
+from .options import DEFAULT_VOLUMETRIC_STRAIN, check_relaxation_length
 from .problem import PlasticityProblem
 from .stepping import RunInterrupted, SolverDivergedError, StepControl, solve_load_path
 
@@ -127,9 +127,7 @@ class WheelIndentation:
                  quadrature_degree: int = 6, smoothing: float = 0.0, kinematics: str = "small-strain",
                  linear_solver: str = "auto", volumetric_strain: str = DEFAULT_VOLUMETRIC_STRAIN,
                  relaxation_length: float = 0.0):
-        if not relaxation_length >= 0:
-            raise ValueError(f"relaxation_length must be >= 0 (m), got {relaxation_length}")
-        self.relaxation_length = float(relaxation_length)
+        self.relaxation_length = check_relaxation_length(relaxation_length)
         self.tagged = tagged
         msh = tagged.mesh
         self.comm = msh.comm
@@ -238,13 +236,12 @@ class WheelIndentation:
         if self.comm.rank == 0:
             path.mkdir(parents=True, exist_ok=True)
             data.update(self._pose())
-            np.savez(path / "state.tmp.npz", **data)
-            os.replace(path / "state.tmp.npz", path / "state.npz")
+            with atomic_path(path / "state.npz") as tmp:
+                np.savez(tmp, **data)
             meta = {"ranks": self.comm.size, "n_dofs": self.n_dofs, "n_steps": len(self.steps),
                     "newton_iterations": self.newton_iterations,
                     "steps": [vars(s) for s in self.steps]}
-            (path / "steps.tmp.json").write_text(json.dumps(meta, indent=1))
-            os.replace(path / "steps.tmp.json", path / "steps.json")
+            atomic_write_text(path / "steps.json", json.dumps(meta, indent=1))
         self.comm.barrier()
 
     def read_checkpoint(self, path) -> int:
@@ -279,22 +276,22 @@ class WheelIndentation:
 
     # ------------------------------------------------------------------ protocols
     def gravity_step(self) -> None:
-        """Geostatic stress + body force, one equilibrium solve, displacement zeroed (wheel not
-        touching: the wheel sits at s = 0, touching the surface at one point)."""
-        if not self.gamma:
-            return
+        """Geostatic stress + body force, one equilibrium solve with the wheel held clear of the
+        soil, displacement zeroed; then the wheel is placed at s = 0 (touching the surface at one
+        point, at ``x_centre``) and the pose committed.  Without unit weight only the pose."""
         pb = self.problem
-        pb.set_geostatic_stress(self.gamma, surface=0.0, K0=self.K0)
-        self.set_sinkage(-1e-3 * self.radius)     # clear of the soil during the gravity solve
-        rep = pb.solve_increment()
-        if not rep.converged:
-            pb.restore()
-            raise SolverDivergedError("gravity step did not converge", None, [])
-        pb.commit()
-        umax = self.comm.allreduce(float(np.abs(pb.u.x.array).max(initial=0.0)), op=MPI.MAX)
-        log.info("gravity step: %d Newton iterations, max |u| = %.3g m (geostatic stress in equilibrium)",
-                 rep.iterations, umax)
-        pb.reset_displacement()
+        if self.gamma:
+            pb.set_geostatic_stress(self.gamma, surface=0.0, K0=self.K0)
+            self.set_sinkage(-1e-3 * self.radius)
+            rep = pb.solve_increment()
+            if not rep.converged:
+                pb.restore()
+                raise SolverDivergedError("gravity step did not converge", None, [])
+            pb.commit()
+            umax = self.comm.allreduce(float(np.abs(pb.u.x.array).max(initial=0.0)), op=MPI.MAX)
+            log.info("gravity step: %d Newton iterations, max |u| = %.3g m (geostatic stress in equilibrium)",
+                     rep.iterations, umax)
+            pb.reset_displacement()
         self.set_sinkage(0.0)
         self.contact.commit()
 

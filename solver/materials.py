@@ -54,19 +54,18 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from rollsim.scene import DEFAULT_REGULARISING_COHESION
+from .options import DEFAULT_REGULARISING_COHESION
 
 __all__ = ["VonMises", "DruckerPrager", "mc_to_dp", "dp_to_mc", "von_mises_from_tresca", "jaky_k0",
-           "admissible_k0", "C_REG_DEFAULT", "PHI_COMPRESSION_MATCH_LIMIT", "regularised_cohesion"]
+           "admissible_k0", "PHI_COMPRESSION_MATCH_LIMIT", "regularised_cohesion"]
 
-#: Regularising ("numerical") cohesion, Pa, put in place of c = 0 by :func:`regularised_cohesion`
-#: (and by ``solver.run.layer_material`` for scene layers).  It is NOT negligible for a wheel: near
-#: the surface the frictional strength gamma z tan(phi) is itself of order 1 kPa.  Measured (README,
-#: "Purely frictional soil (c = 0) under the wheel"; 3D wheel, phi = 40 deg, psi = 0, fast mesh):
-#: against c = 0 exactly, 1 kPa raises Q_V at s/d = 0.02 / 0.05 / 0.1 by 52 / 39 / 60 % (pointwise)
-#: and 54 / 61 / 97 % (B-bar).  c = 0 exactly runs too (scene: ``[model] regularising_cohesion =
-#: 0``), 2-3x slower, and stalled pointwise at phi = 45 deg.
-C_REG_DEFAULT = DEFAULT_REGULARISING_COHESION
+# The regularising ("numerical") cohesion put in place of c = 0 by regularised_cohesion (and by
+# scene_model.layer_material for scene layers), options.DEFAULT_REGULARISING_COHESION (1 kPa), is
+# NOT negligible for a wheel: near the surface the frictional strength gamma z tan(phi) is itself
+# of order 1 kPa.  Measured on the 3D wheel (phi = 40 deg, psi = 0, fast mesh; docs/benchmarks.md):
+# against c = 0 exactly, 1 kPa raises Q_V at s/d = 0.02 / 0.05 / 0.1 by 52 / 39 / 60 % (pointwise)
+# and 54 / 61 / 97 % (B-bar).  c = 0 exactly runs too ([model] regularising_cohesion = 0), 2-3x
+# slower, and stalled pointwise at phi = 45 deg.
 
 #: Above this Mohr-Coulomb angle (asin 0.6 = 36.87 deg) the compression-matched Drucker-Prager cone
 #: has tan(phi_dp) >= 1.5: it has no extension-matched Mohr-Coulomb angle, i.e. it is stronger in
@@ -241,14 +240,14 @@ def dp_to_mc(phi_dp: float, c_dp: float, matching: str = "compression",
     return c, phi
 
 
-def regularised_cohesion(c: float, phi: float, c_reg: float = C_REG_DEFAULT) -> tuple[float, bool]:
+def regularised_cohesion(c: float, phi: float, c_reg: float = DEFAULT_REGULARISING_COHESION) -> tuple[float, bool]:
     """Cohesion to use for a soil with (c [Pa], phi [rad]): ``(c_reg, True)`` for a purely frictional
     soil (``c == 0``, ``phi > 0``), else ``(c, False)``.
 
     A small cohesion keeps the stress-free surface inside the yield surface (the cone's apex moves
     to the tensile mean stress ``c_reg cot(phi)``), so near-surface points are elastic rather than
     on the apex, whose tangent is zero.  It is a numerical device, not soil data, and it raises
-    the wheel force measurably (:data:`C_REG_DEFAULT`): callers must report it, and results should
+    the wheel force measurably (``options.DEFAULT_REGULARISING_COHESION``): callers must report it, and results should
     be checked against smaller values (``benchmarks/bench_frictional_wheel.py --creg 1 0.5 0``)."""
     if not (math.isfinite(c_reg) and c_reg > 0):
         raise ValueError(f"c_reg must be a positive finite number (Pa), got {c_reg!r}")

@@ -38,8 +38,8 @@ from petsc4py import PETSc
 
 from rollsim import compat
 from rollsim.log import get_logger
-from rollsim.scene import DEFAULT_VOLUMETRIC_STRAIN, KINEMATICS, LINEAR_SOLVERS, VOLUMETRIC_STRAINS
 
+from .options import DEFAULT_VOLUMETRIC_STRAIN, KINEMATICS, LINEAR_SOLVERS, VOLUMETRIC_STRAINS, check_choice
 from .return_map import (APEX, ELASTIC, PLASTIC, ReturnResult, duvaut_lions, elastic_stiffness, return_map,
                          yield_function)
 
@@ -69,7 +69,7 @@ DEFAULT_PETSC_OPTIONS = {
 #: nor of 82 of the erratic c = 0 footing (basic line search) meets it (README "Newton plateaus").
 STAGNATION = (3, 1e-3)
 
-#: ``linear_solver="auto"`` (see :data:`rollsim.scene.LINEAR_SOLVERS`): direct (MUMPS LU,
+#: ``linear_solver="auto"`` (see :data:`rollsim.solver.options.LINEAR_SOLVERS`): direct (MUMPS LU,
 #: :data:`DEFAULT_PETSC_OPTIONS`) up to this many global dofs, :data:`ITERATIVE_SOLVER_OPTIONS`
 #: above, where the LU factorisation dominates the run time (accurate preset: 53-74 s per solve)
 AUTO_ITERATIVE_DOFS = 100_000
@@ -220,13 +220,9 @@ class PlasticityProblem:
                  petsc_options: dict | None = None, options_prefix: str = "rollsim_plasticity_",
                  force_rtol: float = 1e-10, cell_tags=None, kinematics: str = "small-strain",
                  linear_solver: str = "auto", volumetric_strain: str = DEFAULT_VOLUMETRIC_STRAIN):
-        if kinematics not in KINEMATICS:
-            raise ValueError(f"kinematics must be one of {', '.join(KINEMATICS)}, got {kinematics!r}")
-        if linear_solver not in LINEAR_SOLVERS:
-            raise ValueError(f"linear_solver must be one of {', '.join(LINEAR_SOLVERS)}, got {linear_solver!r}")
-        if volumetric_strain not in VOLUMETRIC_STRAINS:
-            raise ValueError(f"volumetric_strain must be one of {', '.join(VOLUMETRIC_STRAINS)}, "
-                             f"got {volumetric_strain!r}")
+        check_choice("kinematics", kinematics, KINEMATICS)
+        check_choice("linear_solver", linear_solver, LINEAR_SOLVERS)
+        check_choice("volumetric_strain", volumetric_strain, VOLUMETRIC_STRAINS)
         self.kinematics = kinematics
         self.mesh = mesh
         self.comm = mesh.comm

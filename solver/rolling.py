@@ -1,7 +1,7 @@
-"""Towed rigid wheel rolling over elastoplastic soil: protocol ``rolling-continuous``.
+"""Towed rigid wheel rolling over elastoplastic soil: the mechanics of both rolling protocols
+(the drivers are ``rollsim.solver.drivers.rolling_continuous`` and ``rolling_constant_load``).
 
-Set-up (``shared/spec/numerical-model.md``, "Rolling, continuous"): half model about the wheel
-mid-plane (``rolling_block(cut="half")``), gravity step, wheel placed at ``x0 = ROLLING_START d``
+Set-up: half model about the wheel mid-plane (``rolling_block(cut="half")``), gravity step, wheel placed at ``x0 = ROLLING_START d``
 and pressed vertically to a small initial sinkage ``s0``, then translated in +x while its sinkage
 is ramped slowly (linearly in travel) to the target; every instant is then close to steady
 rolling and one run gives ``Q_V(s)`` and ``Q_H(s)``.
@@ -28,24 +28,21 @@ resistance), > 0 for a wheel moving in +x.
 """
 from __future__ import annotations
 
-import dataclasses
 import math
-import pathlib
 import time
 from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
-from mpi4py import MPI
 
 from rollsim.log import get_logger
 
-from .indentation import WheelIndentation
+from .indentation import LoadControlResult, WheelIndentation
 from .problem import NewtonReport
 from .stepping import SolverDivergedError, StepControl, solve_load_path
 
-__all__ = ["WheelRolling", "RollingStep", "SteadyState", "detect_steady_state", "run_rolling", "rolling_mesh",
-           "DEFAULT_ROLL_CONTROL"]
+__all__ = ["WheelRolling", "RollingStep", "SteadyState", "detect_steady_state", "DEFAULT_ROLL_CONTROL",
+           "STEADY_MIN_TRAVEL"]
 
 log = get_logger("solver")
 
@@ -183,7 +180,7 @@ class WheelRolling:
         # displacement, symmetry_y) and the contact; its pose helpers (x = 0) are not used here
         self._ind = WheelIndentation(tagged, wheel, mats if len(mats) > 1 else next(iter(mats.values())),
                                      gamma=gamma, friction=friction, petsc_options=petsc_options,
-                                     penalty=penalty, **kw)
+                                     penalty=penalty, relaxation_length=relaxation_length, **kw)
         self.tagged = tagged
         self.comm = tagged.mesh.comm
         self.problem = self._ind.problem
@@ -193,9 +190,6 @@ class WheelRolling:
         self.friction = float(friction)
         self.moment_rtol = float(moment_rtol)
         self.max_trials = int(max_trials)
-        if not relaxation_length >= 0:
-            raise ValueError(f"relaxation_length must be >= 0 (m), got {relaxation_length}")
-        self.relaxation_length = float(relaxation_length)
         self.steps: list[RollingStep] = []
         self.target_load: float | None = None   # N, whole wheel: set by roll_at_load
         self.load_rtol = 2e-3
@@ -241,26 +235,20 @@ class WheelRolling:
         return self._ind.newton_iterations
 
     @property
+    def relaxation_length(self) -> float:
+        """Duvaut-Lions relaxation length, m (0: off); the press at constant load uses it too."""
+        return self._ind.relaxation_length
+
+    @property
     def cuts(self) -> int:
         return int(sum(st.cuts for st in self.steps))
 
     # ------------------------------------------------------------------ protocols
     def gravity_step(self) -> None:
-        """Geostatic stress + body force, equilibrium solve, displacement zeroed; the wheel is held
-        just above the surface at the start position."""
-        pb = self.problem
-        if self._ind.gamma:
-            pb.set_geostatic_stress(self._ind.gamma, surface=0.0, K0=self._ind.K0)
-            self.contact.set_pose(centre=self._centre(self.x_start, -1e-3 * self.R), angle=0.0)
-            rep = pb.solve_increment()
-            if not rep.converged:
-                pb.restore()
-                raise SolverDivergedError("gravity step did not converge", None, [])
-            pb.commit()
-            log.info("gravity step: %d Newton iterations", rep.iterations)
-            pb.reset_displacement()
-        self.contact.set_pose(centre=self._centre(self.x_start, 0.0), angle=0.0)
-        self.contact.commit()
+        """:meth:`WheelIndentation.gravity_step` at the start position (wheel held clear of the
+        soil during the solve, then placed on the surface)."""
+        self._ind.x_centre = self.x_start
+        self._ind.gravity_step()
 
     def press(self, s0: float, control: StepControl | None = None,
               on_step: Callable[[RollingStep], None] | None = None) -> list[RollingStep]:
@@ -352,7 +340,7 @@ class WheelRolling:
                                                                  max_cuts=8), on_step)
 
     def press_to_load(self, load: float, sinkage_limit: float,
-                      on_step: Callable[[RollingStep], None] | None = None) -> "LoadControlResult":
+                      on_step: Callable[[RollingStep], None] | None = None) -> LoadControlResult:
         """Vertical load control at the current position: sinkage where the whole-wheel ``Q_V``
         equals ``load`` (N), searched up to ``sinkage_limit`` (m); as
         :meth:`WheelIndentation.push_to_load` (outcomes ``ok`` / ``exceeds_capacity`` / ``failed``)."""
@@ -631,319 +619,3 @@ class WheelRolling:
         self._attempts = 0
         self.steps.append(st)
         return st
-
-
-# ---------------------------------------------------------------------- run directory
-def rolling_mesh(scene, comm: MPI.Comm, *, length: float | None = None, half_width: float = 1.5,
-                 depth: float | None = None, stiff_length: float = 0.0):
-    """Half rolling block for the scene (lengths in multiples of d).  Default length: the report's
-    3.5 d, or longer when the travel needs it (start + travel + 1 d ahead of the wheel)."""
-    from rollsim.geometry import ROLLING_START, MeshOptions, build_soil_block, rolling_block
-    d = scene.wheel.diameter
-    if length is None:
-        length = max(3.5, ROLLING_START + scene.loading.travel / d + 1.0)
-    thick = [layer.thickness for layer in scene.soil.layers[:-1]]
-    if depth is None:
-        depth = max(1.5, sum(thick) / d + 0.5)
-    block = rolling_block(d, length=length, half_width=half_width, depth=depth, cut="half",
-                          layers=tuple(t / d for t in thick), stiff_length=stiff_length)
-    return build_soil_block(comm, block, MeshOptions.from_accuracy(d, scene.model.accuracy))
-
-
-def run_rolling(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_options: dict | None = None,
-                write_fields: bool = True, penalty: float | None = None, initial_sinkage: float | None = None,
-                ramp: float | None = None, block: dict | None = None, moment_rtol: float = 2e-3,
-                steady_rtol: float = 0.02, steady_qh_rtol: float = 0.05, min_window_elements: float = 3.0,
-                steady_min_travel: float | None = None) -> dict:
-    """A rolling protocol of ``scene`` on ``comm``; writes the run directory of
-    ``shared/spec/interfaces.md`` (as :func:`~rollsim.solver.run.run_scene`) and returns the summary.
-
-    ``rolling-continuous``: the wheel is pressed to ``initial_sinkage`` (default 0.005 d) at
-    ``ROLLING_START d`` and rolls ``loading.travel`` with the sinkage ramped to
-    ``loading.max_sinkage`` over ``ramp`` (default: the whole travel).
-
-    ``rolling-constant-load``: gravity, ``loading.load`` applied on the stiff start zone (0.75 d
-    long, elastic, 10x the top layer's modulus), then rolling at that load until steady (see
-    :meth:`WheelRolling.roll_at_load`; ``steady_rtol`` / ``steady_qh_rtol``, looked for after
-    ``steady_min_travel`` m on the test soil, default :data:`STEADY_MIN_TRAVEL` d) or ``loading.travel``;
-    the summary reports the steady sinkage, ``Q_H``, the rut depth (mean surface settlement on the
-    wheel path over the part rolled in steady state, after the wheel has been lifted off: the
-    permanent rut) and the rebound (sinkage - rut depth); ``rut_profile.csv`` has the profile.
-
-    ``block``: keywords of :func:`rolling_mesh` (length/half_width/depth in d).  A signal
-    (SIGINT/SIGTERM/SIGUSR1) stops the run after the current step with ``status = "interrupted"``.
-    """
-    from .run import (_atomic_write, _history_csv, finish_run, history_row, model_summary, relaxation_hint,
-                      run_protected, run_setup, scene_penalty)
-
-    protocol = scene.loading.protocol
-    if protocol not in ("rolling-continuous", "rolling-constant-load"):
-        raise ValueError(f"loading.protocol: {protocol!r} is not a rolling protocol "
-                         "(supported: 'rolling-continuous', 'rolling-constant-load')")
-    constant_load = protocol == "rolling-constant-load"
-    wheel, materials, out = run_setup(scene, out_dir, comm)
-    root = comm.rank == 0
-    t_start = time.perf_counter()
-    d = scene.wheel.diameter
-    travel = scene.loading.travel
-    s0 = 0.005 * d if initial_sinkage is None else float(initial_sinkage)
-    block = dict(block or {})
-    block.setdefault("stiff_length", STIFF_LENGTH if constant_load else 0.0)
-    stiff_length = block["stiff_length"]
-    advice = None
-    if not constant_load:
-        rate, advice = ramp_advice(scene.loading.max_sinkage, min(s0, scene.loading.max_sinkage),
-                                   travel if ramp is None else ramp)
-    tagged = rolling_mesh(scene, comm, **block)
-    roll = WheelRolling(tagged, wheel, materials, gamma=scene.soil.gamma, friction=scene.wheel.friction,
-                        petsc_options=petsc_options, penalty=scene_penalty(scene, penalty), moment_rtol=moment_rtol,
-                        kinematics=scene.model.kinematics, linear_solver=scene.model.linear_solver,
-                        volumetric_strain=scene.model.volumetric_strain,
-                        relaxation_length=scene.model.relaxation_length)
-    writer = None
-    if write_fields:
-        from .fields import FieldWriter
-        writer = FieldWriter(roll.problem, out / "fields", cell_tags=tagged.cell_tags)
-    rows: list[dict] = []
-    bar = TravelProgress(travel, d, enabled=progress and root)
-
-    def on_step(st: RollingStep):
-        rows.append(history_row(st, d, st.travel, t_start))
-        if writer is not None:
-            writer.write(float(len(rows)))
-        if root:
-            _atomic_write(out / "history.csv", _history_csv(rows))
-        bar.update(st)
-
-    steady = None
-    lifted = False
-    rolling_contact_length = 0.0
-    x_soft = stiff_length * d if stiff_length else None
-    min_travel = STEADY_MIN_TRAVEL * d if steady_min_travel is None else float(steady_min_travel)
-
-    def rolling():
-        nonlocal steady, lifted, rolling_contact_length
-        if progress and root:
-            what = (f"Q_V = {scene.loading.load / 1e3:g} kN" if constant_load
-                    else f"s -> {scene.loading.max_sinkage:g} m")
-            log.info("%s: %s wheel d = %g m, mu = %g, %d layer(s), %s mesh: %d cells, %d dofs, %s strain, "
-                     "%d rank(s); travel %g m, %s", protocol, scene.wheel.shape, d, scene.wheel.friction,
-                     len(materials), scene.model.accuracy, tagged.stats.cells, roll.n_dofs,
-                     scene.model.volumetric_strain, comm.size, travel, what)
-        roll.gravity_step()
-        if not constant_load:
-            if advice and root:
-                log.warning(advice)
-            roll.press(min(s0, scene.loading.max_sinkage), on_step=on_step)
-            roll.roll(travel, scene.loading.max_sinkage, ramp=ramp, on_step=on_step)
-            return None
-        res = roll.press_to_load(scene.loading.load, 0.25 * d, on_step=on_step)
-        if res.status != "ok":
-            return f"pressing the wheel on the stiff start zone: {res.status}: {res.reason}"
-        steady = roll.roll_at_load(scene.loading.load, travel, x_soft=x_soft, on_step=on_step,
-                                   steady_rtol=steady_rtol, steady_qh_rtol=steady_qh_rtol,
-                                   min_window_elements=min_window_elements, min_travel=min_travel)
-        if not steady.reached:
-            log.warning("no steady state within the travel of %g m: the values are those of the last "
-                        "step (a longer travel or a coarser steady tolerance may help)", travel)
-        rolling_contact_length = roll.contact_length()
-        roll.lift(on_step=on_step)
-        lifted = True
-        return None
-
-    status, reason, diagnostics = run_protected(
-        rolling, comm, lambda: {"last_converged_travel_m": roll.position - roll.x_start,
-                                "last_converged_sinkage_m": roll.sinkage, "step_cuts_total": roll.cuts})
-    if status == "failed":
-        reason += relaxation_hint(materials, scene)
-
-    rut = None
-    if lifted:
-        try:
-            rut = _rut(roll, steady, x_soft, rolling_contact_length)
-            if root:
-                _atomic_write(out / "rut_profile.csv", "x_m,settlement_m\n" + "".join(
-                    f"{x:.10g},{w:.10g}\n" for x, w in zip(*rut.pop("profile"))))
-            else:
-                rut.pop("profile")
-        except Exception as err:  # noqa: BLE001 - a measurement must not lose the run
-            log.warning("rut measurement failed: %s", err)
-    if writer is not None:
-        try:
-            writer.write_deformed()
-            if constant_load and rows:
-                writer.render_plastic_zone(out / "rut.png", f"rut and plastic zone (displacement x {RUT_PICTURE_SCALE:g})",
-                                           displacement_scale=RUT_PICTURE_SCALE)
-        except Exception as err:  # noqa: BLE001 - a picture must not lose the run
-            log.warning("rut picture failed: %s", err)
-        finally:
-            writer.close()
-
-    wall = comm.allreduce(time.perf_counter() - t_start, op=MPI.MAX)
-    last = rows[-1] if rows else {}
-    summary = {
-        "status": status,
-        "reason": reason,
-        "protocol": protocol,
-        "scene": scene.to_dict(),
-        "wall_time_s": wall,
-        "ranks": comm.size,
-        "dofs": roll.n_dofs,
-        "cells": tagged.stats.cells,
-        "steps": len(rows),
-        "newton_iterations": roll.newton_iterations,
-        "step_cuts": roll.cuts,
-        "travel_m": last.get("travel_m", 0.0),
-        "sinkage_m": last.get("sinkage_m", 0.0),
-        "QV_N": last.get("QV_N", 0.0),
-        "QH_N": last.get("QH_N", 0.0),
-        "moment_Nm": last.get("moment_Nm", 0.0),
-        "rotation_rad": roll.rotation,
-        "max_QV_N": max((row["QV_N"] for row in rows), default=0.0),
-        "model": {**model_summary(scene, roll), "x_start_m": roll.x_start, "moment_rtol": roll.moment_rtol},
-        "files": {"history": "history.csv", "fields": ["fields/fields.xdmf", "fields/deformed.xdmf"]
-                  if write_fields else [], "plot": "force_sinkage.png"},
-    }
-    if constant_load:
-        summary["model"].update(stiff_zone_end_m=x_soft, load_rtol=roll.load_rtol, steady_rtol=steady_rtol,
-                                steady_qh_rtol=steady_qh_rtol, steady_min_window_elements=min_window_elements,
-                                steady_min_travel_m=min_travel)
-        if steady is not None:
-            summary["steady_state"] = dataclasses.asdict(steady)
-            summary.update(sinkage_m=steady.sinkage, QH_N=steady.QH, QV_N=steady.QV)
-        if rut is not None:
-            summary.update(rut)
-            summary["files"]["rut_profile"] = "rut_profile.csv"
-        if write_fields:
-            summary["files"]["rut_picture"] = "rut.png"
-        summary["files"]["travel_plot"] = "rolling.png"
-    else:
-        summary["model"].update(initial_sinkage_m=s0, ramp_m=travel if ramp is None else ramp, ramp_rate=rate,
-                                ramp_slow_enough=advice is None)
-    if diagnostics:
-        summary["diagnostics"] = diagnostics
-    if root and rows:
-        try:
-            _plot_travel(out / "rolling.png", rows, scene, summary, out / "rut_profile.csv")
-        except Exception as err:  # noqa: BLE001
-            log.warning("travel plot failed: %s", err)
-    return finish_run(out, rows, scene, summary, comm, progress=progress)
-
-
-#: stiff start zone of the constant-load protocol, x / d (report: 0.75 d, wheel starting at 0.4 d)
-STIFF_LENGTH = 0.75
-#: fastest sinkage ramp of the continuous protocol shown to be slow enough (s per unit travel,
-#: = s/d per d): halving it from 0.02 to 0.01 changed Q_V at s/d = 0.05 by +1.7 %
-#: (``benchmarks/bench_rolling.py``, README "Ramp rate of the continuous protocol")
-VERIFIED_RAMP_RATE = 0.02
-#: displacement magnification of the rut picture
-RUT_PICTURE_SCALE = 5.0
-
-
-def ramp_advice(max_sinkage: float, initial_sinkage: float, ramp_length: float) -> tuple[float, str | None]:
-    """Ramp rate of a continuous run (sinkage per unit travel) and, when it is faster than
-    :data:`VERIFIED_RAMP_RATE`, a warning with the ramp length (m) that would be slow enough."""
-    rate = (max_sinkage - initial_sinkage) / ramp_length
-    if rate <= VERIFIED_RAMP_RATE * (1 + 1e-9):
-        return rate, None
-    needed = (max_sinkage - initial_sinkage) / VERIFIED_RAMP_RATE
-    return rate, (f"the sinkage ramp ({rate:.3g} s/d per d of travel) is faster than {VERIFIED_RAMP_RATE:g}, the rate "
-                  f"shown slow enough: Q_V(s) reads low while the wheel descends; ramp over >= {needed:.3g} m "
-                  f"(loading.travel) for a near-steady curve")
-
-
-def _rut(roll: WheelRolling, steady: SteadyState | None, x_soft: float | None, contact_length: float) -> dict:
-    """Rut depth and rebound from the surface profile on the wheel path once the wheel has been
-    lifted off (:meth:`WheelRolling.lift`; collective).
-
-    Window: from the start of the steady-state window (or the soft soil + half a contact length)
-    to half a contact length behind the wheel centre (soil that the wheel has rolled over)."""
-    xs, w = roll.surface_profile()
-    L = contact_length
-    x_now = roll.position
-    lo = (x_soft if x_soft is not None else roll.x_start) + 0.5 * L
-    if steady is not None and steady.reached:
-        lo = max(lo, roll.x_start + steady.travel - steady.window)
-    hi = x_now - 0.5 * L
-    sel = (xs >= lo) & (xs <= hi)
-    result = {"profile": (xs, w), "rut_window_m": [float(lo), float(hi)]}
-    if sel.sum() >= 2:
-        rut = float(np.mean(w[sel]))
-        s_ref = steady.sinkage if steady is not None else roll.sinkage
-        result.update(rut_depth_m=rut, rebound_m=s_ref - rut)
-    else:
-        result.update(rut_depth_m=None, rebound_m=None,
-                      rut_note="the wheel has not rolled far enough beyond the stiff zone to measure the rut")
-    return result
-
-
-def _plot_travel(path: pathlib.Path, rows, scene, summary: dict, rut_csv: pathlib.Path) -> None:
-    """Sinkage and Q_H against travel (and the rut profile for the constant-load protocol)."""
-    import io
-
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    from .run import _atomic_write
-    x = np.array([r["travel_m"] for r in rows])
-    s = np.array([r["sinkage_m"] for r in rows])
-    qh = np.array([r["QH_N"] for r in rows]) / 1e3
-    qv = np.array([r["QV_N"] for r in rows]) / 1e3
-    x0 = summary["model"]["x_start_m"]
-    fig, (ax1, ax2) = plt.subplots(2, 1, figsize=(7, 6), sharex=True)
-    ax1.plot(x0 + x, 1e3 * s, "o-", ms=2.5, label="sinkage under the wheel")
-    if rut_csv.exists():
-        prof = np.loadtxt(rut_csv, delimiter=",", skiprows=1, ndmin=2)
-        if prof.size:
-            ax1.plot(prof[:, 0], 1e3 * prof[:, 1], "-", color="0.4", label="surface settlement (rut) on the path")
-    st = summary.get("steady_state")
-    if st and st.get("reached"):
-        ax1.axhline(1e3 * st["sinkage"], color="C3", lw=0.8, ls="--", label=f"steady s = {1e3 * st['sinkage']:.1f} mm")
-    if summary.get("rut_depth_m") is not None:
-        ax1.axhline(1e3 * summary["rut_depth_m"], color="0.4", lw=0.8, ls=":",
-                    label=f"rut depth {1e3 * summary['rut_depth_m']:.1f} mm")
-    zone = summary["model"].get("stiff_zone_end_m")
-    for ax in (ax1, ax2):
-        if zone:
-            ax.axvspan(0, zone, color="0.9", zorder=0)
-        ax.grid(alpha=0.3)
-    ax1.set_ylabel("sinkage / settlement (mm)")
-    ax1.invert_yaxis()
-    ax1.legend(fontsize=8, loc="lower right")
-    ax2.plot(x0 + x, qh, "o-", ms=2.5, color="C1", label="Q_H (towing force)")
-    ax2.plot(x0 + x, qv, "-", color="C0", lw=0.8, label="Q_V")
-    ax2.set_xlabel("wheel centre x (m)" + ("  (grey: stiff start zone)" if zone else ""))
-    ax2.set_ylabel("force (kN)")
-    ax2.legend(fontsize=8)
-    d = scene.wheel.diameter
-    fig.suptitle(f"{summary['protocol']}: rigid {scene.wheel.shape} d = {d:g} m, b = {scene.wheel.width:g} m, "
-                 f"mu = {scene.wheel.friction:g}" + ("" if summary["status"] == "ok" else f" [{summary['status']}]"),
-                 fontsize=10)
-    fig.tight_layout()
-    buf = io.BytesIO()
-    fig.savefig(buf, format="png", dpi=120)
-    plt.close(fig)
-    _atomic_write(path, buf.getvalue(), binary=True)
-
-
-class TravelProgress:
-    """Progress of a rolling run on rank 0: a bar with travel, sinkage and forces, one log line
-    per step (readable in files and under mpirun), with the mean step time and an estimate of
-    the time left for the travel."""
-
-    def __init__(self, travel: float, d: float, enabled: bool = True, width: int = 24):
-        self.travel, self.d, self.enabled, self.width = travel, d, enabled, width
-        self.t0 = time.perf_counter()
-
-    def update(self, st: RollingStep) -> None:
-        if not self.enabled:
-            return
-        frac = min(max(st.travel / self.travel, 0.0), 1.0)
-        filled = int(round(frac * self.width))
-        elapsed = time.perf_counter() - self.t0
-        eta = (f", <= {elapsed * (1 - frac) / frac / 60:.1f} min left" if frac > 0.02 else "")
-        log.info("[%s%s] %3.0f%%  x = %.3f m  s = %.2f mm (s/d %.4f)  Q_V = %.2f kN  Q_H = %.2f kN  M = %.2g N m  "
-                 "%d its/%d trials%s", "#" * filled, "." * (self.width - filled), 100 * frac, st.travel,
-                 1e3 * st.sinkage, st.sinkage / self.d, st.QV / 1e3, st.QH / 1e3, st.moment, st.iterations,
-                 st.trials, eta)

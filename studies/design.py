@@ -18,6 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from rollsim.files import atomic_path
 from rollsim.log import get_logger
 from rollsim.studies.bearing_capacity import Options, Soil, Wheel, sinkage, wheel_forces
 from rollsim.studies.layered import influence_depth
@@ -56,12 +57,10 @@ def _plt():
 
 
 def _write_csv(path: pathlib.Path, header, rows):
-    tmp = path.with_suffix(path.suffix + ".tmp")
-    with tmp.open("w", newline="") as f:
+    with atomic_path(path) as tmp, tmp.open("w", newline="") as f:
         w = csv.writer(f)
         w.writerow(header)
         w.writerows(rows)
-    tmp.replace(path)
 
 
 def strength_chart(out: pathlib.Path, quantity: str) -> pathlib.Path:

@@ -34,7 +34,6 @@ import csv
 import itertools
 import json
 import math
-import os
 import pathlib
 import re
 import shutil
@@ -46,6 +45,7 @@ from typing import Callable
 import numpy as np
 from mpi4py import MPI
 
+from rollsim.files import atomic_write_text
 from rollsim.log import get_logger
 from rollsim.scene import Scene, parse_scene
 from rollsim.units import FORCE, InputError, to_si
@@ -223,16 +223,6 @@ def load_study(path) -> Study:
 
 
 # ----------------------------------------------------------------------- execution
-def atomic_write_text(path: pathlib.Path, text: str) -> None:
-    """Write ``text`` to ``path`` so that readers see the old or the new file, never half of one."""
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    with tmp.open("w") as f:
-        f.write(text)
-        f.flush()
-        os.fsync(f.fileno())
-    os.replace(tmp, path)
-
-
 def case_done(case_dir: pathlib.Path) -> bool:
     """A case is complete when its summary.json exists (it is written last, atomically)."""
     return (case_dir / "summary.json").is_file()

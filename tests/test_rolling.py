@@ -18,9 +18,10 @@ from rollsim.geometry import CylinderWheel, MeshOptions, build_soil_block, rolli
 from rollsim.scene import parse_scene
 from rollsim.solver import DruckerPrager, VonMises
 from rollsim.solver.materials import dp_to_mc
-from rollsim.solver.rolling import (VERIFIED_RAMP_RATE, RollingStep, WheelRolling, detect_steady_state, ramp_advice,
-                                    run_rolling)
-from rollsim.solver.run import HISTORY_COLUMNS
+from rollsim.solver.drivers.rolling_continuous import VERIFIED_RAMP_RATE, ramp_advice
+from rollsim.solver.rolling import RollingStep, WheelRolling, detect_steady_state
+from rollsim.solver.run import run_scene
+from rollsim.solver.rundir import HISTORY_COLUMNS
 from rollsim.solver.stepping import StepControl
 from rollsim.studies.bearing_capacity import Soil, Wheel, wheel_forces
 from rollsim.studies.layered import influence_depth
@@ -47,11 +48,11 @@ def _scene(friction=0.0, loading=None):
 
 
 def test_frictionless_rolling_run_directory(comm, tmp_mpi_path):
-    """run_rolling writes the run directory; frictionless: zero axle moment (normal pressures pass
+    """run_scene (rolling) writes the run directory; frictionless: zero axle moment (normal pressures pass
     through the axle), rolling resistance Q_H > 0, Q_V grows from the initial press as the sinkage
     is ramped, travel_m filled, whole-wheel forces (half model x 2)."""
     scene = _scene(0.0)
-    summary = run_rolling(scene, tmp_mpi_path, comm, progress=False, write_fields=False, block=BLOCK,
+    summary = run_scene(scene, tmp_mpi_path, comm, progress=False, write_fields=False, block=BLOCK,
                           initial_sinkage=0.01 * D)
     assert summary["status"] == "ok", summary.get("reason")
     assert summary["model"]["symmetry"] == "half" and summary["model"]["symmetry_factor"] == 2
@@ -157,7 +158,7 @@ def test_relaxation_lets_non_associated_sand_roll(comm, tmp_mpi_path):
                                                               "phi_dp": 61.6, "c_dp": 18.5e3}]},
                          "loading": {"protocol": "rolling-continuous", "max_sinkage": 0.01 * D, "travel": 0.1 * D},
                          "model": {"accuracy": "fast"}})
-    summary = run_rolling(scene, tmp_mpi_path, comm, progress=False, write_fields=False, block=BLOCK,
+    summary = run_scene(scene, tmp_mpi_path, comm, progress=False, write_fields=False, block=BLOCK,
                           initial_sinkage=0.01 * D)
     assert summary["status"] == "failed" and "relaxation_length" in summary["reason"], summary["reason"]
     sand = DruckerPrager(E=40e6, nu=0.35, phi_dp=math.radians(61.6), c_dp=18.5e3, dilation=0.0)
@@ -214,10 +215,12 @@ def test_influence_depth_sand_over_very_weak_clay(comm):
     assert 0.35 < float(model.H_m) / D <= 0.45, model.H_m
 
 
-def test_other_protocols_refused(comm, tmp_mpi_path):
+def test_unknown_protocol_refused(comm, tmp_mpi_path):
+    import dataclasses
+    scene = _scene(0.0)
+    scene = dataclasses.replace(scene, loading=dataclasses.replace(scene.loading, protocol="sliding"))
     with pytest.raises(ValueError, match="loading.protocol"):
-        run_rolling(_scene(0.0, {"protocol": "indentation", "max_sinkage": "0.1 m"}), tmp_mpi_path, comm,
-                    progress=False)
+        run_scene(scene, tmp_mpi_path, comm, progress=False)
 
 
 def _synthetic(travels, sinkages, qh):
@@ -289,7 +292,7 @@ CL_BLOCK = {"length": 1.6, "half_width": 0.6, "depth": 0.6, "stiff_length": 0.5}
 
 @pytest.mark.serial
 def test_constant_load_rolling(tmp_mpi_path):
-    """rolling-constant-load through run_rolling (fast mesh, short block, serial; the report-size
+    """rolling-constant-load through run_scene (fast mesh, short block, serial; the report-size
     runs are in benchmarks/bench_rolling_protocols.py): Q_V is held to load_rtol at every rolled step, the wheel leaves the stiff start zone and sinks
     deeper into the clay, a steady state is detected (trend of s below steady_rtol over the
     window), and after the wheel is lifted the permanent rut is shallower than the sinkage
@@ -302,7 +305,7 @@ def test_constant_load_rolling(tmp_mpi_path):
     scene = _constant_load_scene(0.0, "300 kPa", "100 kN", 0.8 * D)
     # short block: a 1-element window, looked for as soon as it lies on the clay (the overshoot of
     # the long blocks has no room to decay here)
-    summary = run_rolling(scene, tmp_mpi_path, comm, progress=False, write_fields=False, steady_rtol=0.05,
+    summary = run_scene(scene, tmp_mpi_path, comm, progress=False, write_fields=False, steady_rtol=0.05,
                           min_window_elements=1, steady_min_travel=0.0, block=CL_BLOCK)
     assert summary["status"] == "ok", summary.get("reason")
     ss = summary["steady_state"]
@@ -345,9 +348,9 @@ def test_interrupted_run_keeps_history_and_summary(comm, tmp_mpi_path, monkeypat
     import os
     import signal
 
-    from rollsim.solver import rolling
+    from rollsim.solver import rundir
     calls = []
-    original = rolling.TravelProgress.update
+    original = rundir.TravelProgress.update
 
     def update(self, st):
         calls.append(st.step)
@@ -355,9 +358,9 @@ def test_interrupted_run_keeps_history_and_summary(comm, tmp_mpi_path, monkeypat
             os.kill(os.getpid(), signal.SIGINT)
         return original(self, st)
 
-    monkeypatch.setattr(rolling.TravelProgress, "update", update)
+    monkeypatch.setattr(rundir.TravelProgress, "update", update)
     before = signal.getsignal(signal.SIGINT)
-    summary = run_rolling(_scene(0.0), tmp_mpi_path, comm, progress=False, write_fields=False, block=BLOCK,
+    summary = run_scene(_scene(0.0), tmp_mpi_path, comm, progress=False, write_fields=False, block=BLOCK,
                           initial_sinkage=0.01 * D)
     assert summary["status"] == "interrupted"
     assert summary["diagnostics"]["signal"] == "SIGINT"
@@ -378,3 +381,22 @@ def test_ramp_advice_names_a_slow_enough_travel():
     assert rate == pytest.approx(0.09)
     needed = 0.045 * D / VERIFIED_RAMP_RATE
     assert advice is not None and "loading.travel" in advice and f"{needed:.3g} m" in advice
+
+
+def test_constant_load_press_uses_the_relaxation_length(comm):
+    """The press onto the start zone at constant load is regularised like the rolling that follows:
+    every sinkage step of ``press_to_load`` relaxes the soil over the scene's relaxation length."""
+    roll = WheelRolling(_tiny(comm), CylinderWheel(D, B, B / 12), CLAY, friction=0.8, relaxation_length=1e-3)
+    lengths = []
+    original = roll.problem.relax_over
+
+    def relax_over(path, relaxation_length):
+        lengths.append(relaxation_length)
+        return original(path, relaxation_length)
+
+    roll.problem.relax_over = relax_over
+    roll.gravity_step()
+    res = roll.press_to_load(20e3, 0.02 * D)
+    assert res.status == "ok", res.reason
+    assert roll.relaxation_length == 1e-3
+    assert lengths and set(lengths) == {1e-3}, lengths

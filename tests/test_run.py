@@ -9,7 +9,9 @@ import math
 import pytest
 
 from rollsim.scene import load_scene, parse_scene
-from rollsim.solver.run import HISTORY_COLUMNS, layer_material, run_scene
+from rollsim.solver.run import run_scene
+from rollsim.solver.rundir import HISTORY_COLUMNS
+from rollsim.solver.scene_model import layer_material
 
 
 def _scene(max_sinkage="0.03 m", **layer):

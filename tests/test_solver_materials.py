@@ -278,13 +278,14 @@ def test_smoothed_mc_psi0_point_at_the_rounded_tip_does_not_crash():
 
 
 def test_regularised_cohesion_and_scene_layers():
-    """c = 0 layers get the regularising cohesion C_REG_DEFAULT, and the log says so; c > 0 is untouched."""
+    """c = 0 layers get the default regularising cohesion, and the log says so; c > 0 is untouched."""
     import logging
 
     from rollsim.scene import parse_scene
-    from rollsim.solver.materials import C_REG_DEFAULT, regularised_cohesion
+    from rollsim.solver.materials import regularised_cohesion
+    from rollsim.solver.options import DEFAULT_REGULARISING_COHESION as C_REG_DEFAULT
     from rollsim.units import InputError
-    from rollsim.solver.run import layer_material
+    from rollsim.solver.scene_model import layer_material
     assert regularised_cohesion(0.0, 40 * DEG) == (C_REG_DEFAULT, True)
     assert regularised_cohesion(5e3, 40 * DEG) == (5e3, False)
     assert regularised_cohesion(0.0, 40 * DEG, c_reg=500.0) == (500.0, True)
@@ -314,9 +315,9 @@ def test_regularised_cohesion_and_scene_layers():
     text = "\n".join(r.getMessage() for r in records)
     assert text.count("regularising cohesion") == 3 and "soil.layers[3]" not in text
     assert "plane-strain" in text and "soil.layers[1]: compression-matched" in text
-    from rollsim.solver.run import regularised_layers     # what summary.json reports
+    from rollsim.solver.scene_model import regularised_layers     # what summary.json reports
     assert regularised_layers(sc) == {f"soil.layers[{i}]": C_REG_DEFAULT for i in range(3)}
-    from rollsim.solver.run import FRICTIONAL_PENALTY, scene_penalty
+    from rollsim.solver.scene_model import FRICTIONAL_PENALTY, scene_penalty
     assert scene_penalty(sc, None) == FRICTIONAL_PENALTY and scene_penalty(sc, 10.0) == 10.0
     cohesive = parse_scene({"wheel": {"diameter": 1.0, "width": 0.3}, "soil": {"gamma": 20e3, "layers": layers[3:]},
                             "loading": {"protocol": "indentation", "max_sinkage": 0.1}})
@@ -342,7 +343,7 @@ def test_scene_match_plane_strain_flow():
     tan(phi_dp) = sqrt(3) sin(phi), c_dp = sqrt(3) c cos(phi)); "plane-strain" keeps the associated
     formula; with an associated layer (dilation = phi) the two agree."""
     from rollsim.scene import parse_scene
-    from rollsim.solver.run import layer_material
+    from rollsim.solver.scene_model import layer_material
     layer = {"model": "drucker-prager", "E": 4e7, "nu": 0.35, "c": 10e3, "phi": 40}
 
     def material(**kw):

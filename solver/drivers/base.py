@@ -1,0 +1,207 @@
+"""The skeleton every protocol driver shares: set-up, one history row per converged step, the
+protected run, the fields, the summary and the run directory (``rollsim.solver.rundir``)."""
+from __future__ import annotations
+
+import time
+import traceback
+from typing import Callable
+
+from mpi4py import MPI
+
+from rollsim.log import get_logger
+
+from ..rundir import finish_run, history_row, make_run_directory, write_history
+from ..scene_model import layer_materials, relaxation_hint, scene_penalty, wheel_geometry
+
+__all__ = ["ProtocolRun", "run_protected"]
+
+log = get_logger("run")
+
+
+def run_protected(body, comm: MPI.Comm, state) -> tuple[str, str, dict]:
+    """Run a protocol, ``body()``, so that it never hangs or raises: ``(status, reason, diagnostics)``.
+
+    Signals stop it at a step boundary (``"interrupted"``); a solver failure or any exception gives
+    ``"failed"`` with the reason; ``body`` may also return a failure reason itself.  ``state()``
+    gives the diagnostics of the last converged state.  All ranks agree on the outcome (a
+    rank-local exception would otherwise hang the others)."""
+    from ..stepping import RunInterrupted, SolverDivergedError, stop_on_signals
+    status, reason, diagnostics = "ok", "", {}
+    try:
+        with stop_on_signals():
+            why = body()
+        if why:
+            status, reason = "failed", why
+    except RunInterrupted as err:
+        status, reason = "interrupted", str(err)
+        diagnostics = {"signal": err.signal_name, **state()}
+        log.warning("run interrupted: %s", reason)
+    except SolverDivergedError as err:
+        status, reason = "failed", str(err)
+        hist = getattr(err, "history", None) or []
+        diagnostics = {**state(), "last_step_residual_norms": list(hist[-1].residual_norms) if hist else []}
+        log.warning("run failed: %s", reason)
+    except Exception as err:          # noqa: BLE001 - report, never hang
+        status, reason = "failed", f"{type(err).__name__}: {err}"
+        diagnostics = {"traceback": traceback.format_exc()}
+        log.error("run failed: %s", reason)
+    if "failed" in comm.allgather(status) and status != "failed":
+        status, reason = "failed", "failed on another rank"
+    return status, reason, diagnostics
+
+
+class ProtocolRun:
+    """One ``rollsim run`` of a scene, around the protocol's own loading.
+
+    A driver builds its mesh and wheel object (:class:`~rollsim.solver.indentation.WheelIndentation`
+    or :class:`~rollsim.solver.rolling.WheelRolling`) with :attr:`solver_options`, hands them to
+    :meth:`attach`, calls :meth:`record` for every converged step from inside the body it gives
+    :meth:`execute`, then :meth:`close_fields`, :meth:`summary` and :meth:`finish`.
+    """
+
+    def __init__(self, scene, out_dir, comm: MPI.Comm, *, progress: bool = True, write_fields: bool = True,
+                 petsc_options: dict | None = None, penalty: float | None = None):
+        self.scene, self.comm, self.progress, self.write_fields = scene, comm, progress, write_fields
+        self.root = comm.rank == 0
+        self.t_start = time.perf_counter()
+        self.d = scene.wheel.diameter
+        self.wheel = wheel_geometry(scene.wheel)
+        self.soil = layer_materials(scene)
+        self.out = make_run_directory(out_dir, comm)
+        model = scene.model
+        #: keywords shared by the wheel classes: what this run applies
+        self.solver_options = dict(gamma=scene.soil.gamma, friction=scene.wheel.friction,
+                                   petsc_options=petsc_options, penalty=scene_penalty(scene, penalty),
+                                   kinematics=model.kinematics, linear_solver=model.linear_solver,
+                                   volumetric_strain=model.volumetric_strain,
+                                   relaxation_length=model.relaxation_length)
+        self.rows: list[dict] = []
+        self.tagged = self.wheel_run = self.writer = None
+
+    def attach(self, tagged, wheel_run) -> None:
+        """The mesh and the wheel object of the run; opens the field writer."""
+        self.tagged, self.wheel_run = tagged, wheel_run
+        if self.write_fields:
+            from ..fields import FieldWriter
+            self.writer = FieldWriter(wheel_run.problem, self.out / "fields", cell_tags=tagged.cell_tags)
+
+    def announce(self, loading: str = "") -> None:
+        """The run's first log line: protocol, wheel, soil, mesh, then the protocol's ``loading``."""
+        if self.progress and self.root:
+            sc = self.scene
+            log.info("%s: %s wheel d = %g m, mu = %g, %d layer(s), %s mesh: %d cells, %d dofs, %s strain, "
+                     "%d rank(s)%s", sc.loading.protocol, sc.wheel.shape, self.d, sc.wheel.friction,
+                     len(self.soil.by_layer), sc.model.accuracy, self.tagged.stats.cells, self.wheel_run.n_dofs,
+                     self.wheel_run.problem.volumetric_strain, self.comm.size, f"; {loading}" if loading else "")
+
+    def record(self, st, travel: float, field_time: float) -> None:
+        """A converged step ``st``: its history row, its fields at ``field_time``, history.csv."""
+        self.rows.append(history_row(st, self.d, travel, self.t_start))
+        if self.writer is not None:
+            self.writer.write(field_time)
+        write_history(self.out, self.rows, self.comm)
+
+    def execute(self, body: Callable[[], str | None], state: Callable[[], dict]) -> tuple[str, str, dict]:
+        """:func:`run_protected` of ``body``; a failure's reason names the remedies that apply."""
+        status, reason, diagnostics = run_protected(body, self.comm, state)
+        if status == "failed":
+            reason += relaxation_hint(self.soil.by_layer, self.scene)
+        return status, reason, diagnostics
+
+    def close_fields(self, picture: Callable | None = None) -> None:
+        """Write the deformed mesh, then ``picture(writer)`` if given (a failing picture is logged,
+        never fatal), and close the field files."""
+        if self.writer is None:
+            return
+        try:
+            self.writer.write_deformed()
+            if picture is not None:
+                picture(self.writer)
+        except Exception as err:  # noqa: BLE001 - a picture must not lose the run
+            log.warning("field picture failed: %s", err)
+        finally:
+            self.writer.close()
+
+    def model_summary(self) -> dict:
+        """The ``model`` entry of ``summary.json``: what the run applied (symmetry, mesh preset,
+        element degree, kinematics, linear solver, strain, contact, relaxation length and the
+        regularising cohesion put in place of c = 0), read from the objects that were built."""
+        run = self.wheel_run
+        ct = run.contact
+        model = {"symmetry": {4: "quarter", 2: "half", 1: "full"}[run.factor], "symmetry_factor": run.factor,
+                 "accuracy": self.scene.model.accuracy, "displacement_degree": run.problem.degree,
+                 "kinematics": run.problem.kinematics, "linear_solver": run.problem.linear_solver,
+                 "volumetric_strain": run.problem.volumetric_strain,
+                 "contact": {"method": "penalty", "alpha": ct.alpha, "kappa_Pa_per_m": ct.kappa, "h_m": ct.h,
+                             "friction": ct.friction},
+                 "relaxation_length_m": run.relaxation_length}
+        if self.soil.regularised:
+            model["regularising_cohesion_Pa"] = dict(self.soil.regularised)
+        return model
+
+    def summary(self, status: str, reason: str, **results) -> dict:
+        """The keys of ``summary.json`` every protocol writes, then the protocol's ``results``
+        (``sinkage_m``, ``QV_N``, ``QH_N`` default to the last converged step)."""
+        wall = self.comm.allreduce(time.perf_counter() - self.t_start, op=MPI.MAX)
+        last = self.rows[-1] if self.rows else {}
+        run = self.wheel_run
+        return {"status": status, "reason": reason, "protocol": self.scene.loading.protocol,
+                "scene": self.scene.to_dict(), "wall_time_s": wall, "ranks": self.comm.size, "dofs": run.n_dofs,
+                "cells": self.tagged.stats.cells, "steps": len(self.rows),
+                "newton_iterations": run.newton_iterations, "step_cuts": run.cuts,
+                "sinkage_m": last.get("sinkage_m", 0.0), "QV_N": last.get("QV_N", 0.0),
+                "QH_N": last.get("QH_N", 0.0), "max_QV_N": max((r["QV_N"] for r in self.rows), default=0.0),
+                **results, "model": self.model_summary(),
+                "files": {"history": "history.csv", "plot": "force_sinkage.png",
+                          "fields": ["fields/fields.xdmf", "fields/deformed.xdmf"] if self.write_fields else []}}
+
+    def finish(self, summary: dict, diagnostics: dict) -> dict:
+        """Write history.csv, the force-sinkage plot and summary.json (last); returns ``summary``."""
+        if diagnostics:
+            summary["diagnostics"] = diagnostics
+        return finish_run(self.out, self.rows, self.scene, summary, self.comm, progress=self.progress)
+
+
+class RollingRun(ProtocolRun):
+    """A :class:`ProtocolRun` of a towed wheel on the half rolling block (``block``: keywords of
+    :func:`~rollsim.solver.scene_model.rolling_mesh`, lengths in d): :attr:`roll` is the
+    :class:`~rollsim.solver.rolling.WheelRolling`, :meth:`on_step` records a step and prints the
+    travel progress."""
+
+    def __init__(self, scene, out_dir, comm: MPI.Comm, *, block: dict, moment_rtol: float, **kw):
+        from ..rolling import WheelRolling
+        from ..rundir import TravelProgress
+        from ..scene_model import rolling_mesh
+        super().__init__(scene, out_dir, comm, **kw)
+        tagged = rolling_mesh(scene, comm, **block)
+        self.roll = WheelRolling(tagged, self.wheel, self.soil.by_layer, moment_rtol=moment_rtol,
+                                 **self.solver_options)
+        self.attach(tagged, self.roll)
+        self.bar = TravelProgress(scene.loading.travel, self.d, enabled=self.progress and self.root)
+
+    def on_step(self, st) -> None:
+        """A converged ``RollingStep``: history row, fields (time = step number), progress."""
+        self.record(st, st.travel, float(len(self.rows) + 1))
+        self.bar.update(st)
+
+    def state(self) -> dict:
+        """Diagnostics of the last converged state."""
+        roll = self.roll
+        return {"last_converged_travel_m": roll.position - roll.x_start, "last_converged_sinkage_m": roll.sinkage,
+                "step_cuts_total": roll.cuts}
+
+    def summary(self, status: str, reason: str, **results) -> dict:
+        last = self.rows[-1] if self.rows else {}
+        summary = super().summary(status, reason, travel_m=last.get("travel_m", 0.0),
+                                  moment_Nm=last.get("moment_Nm", 0.0), rotation_rad=self.roll.rotation, **results)
+        summary["model"].update(x_start_m=self.roll.x_start, moment_rtol=self.roll.moment_rtol)
+        return summary
+
+    def plot_travel(self, summary: dict) -> None:
+        """``rolling.png`` (sinkage, rut and forces against travel) from rank 0; never fatal."""
+        if self.root and self.rows:
+            from ..rundir import plot_travel
+            try:
+                plot_travel(self.out / "rolling.png", self.rows, self.scene, summary, self.out / "rut_profile.csv")
+            except Exception as err:  # noqa: BLE001 - a plot must not lose the run
+                log.warning("travel plot failed: %s", err)

@@ -1,0 +1,62 @@
+"""Every solver option's choices and default, in one place.
+
+The scene parser (``rollsim.scene``) and the benchmarks import them from here; the solver classes
+validate against them.  Names are the scene's spelling (``"plane-strain"``); where the solver's
+own functions spell a choice differently, the mapping lives here too (:data:`MATCHING`).
+"""
+from __future__ import annotations
+
+from rollsim.geometry.mesh import ACCURACY_REFINEMENT
+
+#: loading protocols of ``rollsim run``
+PROTOCOLS = ("indentation", "rolling-continuous", "rolling-constant-load")
+#: mesh presets (``[model] accuracy``); their element sizes are ``ACCURACY_REFINEMENT`` in
+#: ``rollsim.geometry.mesh``
+ACCURACIES = tuple(ACCURACY_REFINEMENT)
+DEFAULT_ACCURACY = "standard"
+#: small strain, or incremental large deformation (``PlasticityProblem(kinematics=...)``)
+KINEMATICS = ("small-strain", "updated-lagrangian")
+DEFAULT_KINEMATICS = "small-strain"
+#: linear solver of the Newton iteration (``PlasticityProblem(linear_solver=...)``): "auto" =
+#: direct LU up to ``problem.AUTO_ITERATIVE_DOFS`` dofs, iterative (AMG-preconditioned GMRES) above
+LINEAR_SOLVERS = ("auto", "direct", "iterative")
+DEFAULT_LINEAR_SOLVER = "auto"
+#: volumetric strain of the soil (``PlasticityProblem(volumetric_strain=...)``): "cell-average" =
+#: B-bar (one volumetric constraint per cell: no locking under isochoric plastic flow),
+#: "pointwise" = plain strain at every quadrature point.  The solver classes default to
+#: :data:`DEFAULT_VOLUMETRIC_STRAIN`; scenes default per protocol (:func:`default_volumetric_strain`).
+VOLUMETRIC_STRAINS = ("cell-average", "pointwise")
+DEFAULT_VOLUMETRIC_STRAIN = "pointwise"
+#: Drucker-Prager to Mohr-Coulomb matching, scene spelling -> ``materials.mc_to_dp`` spelling
+MATCHING = {"compression": "compression", "extension": "extension", "plane-strain": "plane_strain",
+            "plane-strain-flow": "plane_strain_flow"}
+MATCHES = tuple(MATCHING)
+DEFAULT_MATCH = "compression"
+#: Pa put in place of c = 0 in purely frictional layers (``[model] regularising_cohesion``);
+#: 0 keeps c = 0
+DEFAULT_REGULARISING_COHESION = 1.0e3
+#: Duvaut-Lions relaxation length (m of the wheel's path; ``[model] relaxation_length``); 0: off
+DEFAULT_RELAXATION_LENGTH = 0.0
+
+
+def default_volumetric_strain(protocol: str) -> str:
+    """The scene default of ``[model] volumetric_strain`` for a loading protocol: B-bar
+    ("cell-average") for indentation, where it removes the locking of the P2 tetrahedra (the
+    standard and accurate presets agree within 3 %); "pointwise" for rolling, whose figures were
+    measured with it and where B-bar changes the constant-load sinkage by up to 2x on the fast
+    preset (docs: benchmarks, "Volumetric strain")."""
+    return "cell-average" if protocol == "indentation" else "pointwise"
+
+
+def check_choice(name: str, value: str, allowed: tuple[str, ...]) -> str:
+    """``value`` if it is one of ``allowed``, else a ``ValueError`` naming the option."""
+    if value not in allowed:
+        raise ValueError(f"{name} must be one of {', '.join(allowed)}, got {value!r}")
+    return value
+
+
+def check_relaxation_length(value: float) -> float:
+    """The Duvaut-Lions relaxation length (m) as a float; ``ValueError`` unless it is >= 0."""
+    if not value >= 0:
+        raise ValueError(f"relaxation_length must be >= 0 (m), got {value}")
+    return float(value)

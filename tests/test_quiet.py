@@ -1,0 +1,53 @@
+"""Quiet by default: other libraries' INFO messages (the form compiler's build steps) stay out of
+the terminal unless --verbose; rollsim's own progress is shown; the version is reported."""
+from __future__ import annotations
+
+import logging
+
+import pytest
+from mpi4py import MPI
+
+import rollsim
+from rollsim.cli import main
+from rollsim.log import get_logger, setup_logging
+
+
+@pytest.fixture
+def restore_logging():
+    root = logging.getLogger()
+    saved = root.handlers[:], root.level
+    yield
+    root.handlers[:], root.level = saved
+    logging.getLogger("rollsim").handlers.clear()
+
+
+def _emit():
+    logging.getLogger().setLevel(logging.INFO)          # what the compiler's build does to the root logger
+    logging.info("running build_ext")
+    logging.getLogger("ffcx").info("compiling form")
+    logging.getLogger("dolfinx").warning("a library warning")
+    get_logger("run").info("step 1 progress")
+
+
+def test_compiler_log_hidden_by_default(capsys, restore_logging):
+    setup_logging(MPI.COMM_WORLD)
+    _emit()
+    err = capsys.readouterr().err
+    assert "running build_ext" not in err and "compiling form" not in err
+    if MPI.COMM_WORLD.rank == 0:
+        assert "step 1 progress" in err and "a library warning" in err
+
+
+def test_compiler_log_shown_with_verbose(capsys, restore_logging):
+    setup_logging(MPI.COMM_WORLD, verbose=True)
+    _emit()
+    err = capsys.readouterr().err
+    if MPI.COMM_WORLD.rank == 0:
+        assert "running build_ext" in err and "compiling form" in err and "step 1 progress" in err
+
+
+def test_version(capsys):
+    from importlib.metadata import version
+    assert rollsim.__version__ == version("rollsim")
+    assert main(["--version"]) == 0
+    assert capsys.readouterr().out.strip() == f"rollsim {rollsim.__version__}"
