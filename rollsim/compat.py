@@ -123,13 +123,59 @@ def interpolation_points(V) -> np.ndarray:
     return pts() if callable(pts) else pts
 
 
+def cell_name(mesh) -> str:
+    """The cell type's name ("tetrahedron", ...; ``topology.cell_name()`` in 0.5, ``cell_type.name`` later)."""
+    return mesh.topology.cell_name()
+
+
+def cell_dofs(dofmap) -> np.ndarray:
+    """A dofmap as a 2D array ``(cells, dofs per cell)`` (an adjacency list in 0.5, an array later);
+    works for function-space dofmaps and ``mesh.geometry.dofmap``."""
+    adjacency = getattr(dofmap, "list", dofmap)
+    if adjacency.num_nodes == 0:
+        return np.zeros((0, 0), dtype=np.int32)
+    return adjacency.array.reshape(adjacency.num_nodes, -1)
+
+
+def incident_entities(mesh, entities: np.ndarray, dim: int, other_dim: int) -> np.ndarray:
+    """Entities of dimension ``other_dim`` incident to ``entities`` of dimension ``dim`` (takes
+    the mesh in 0.5, the topology later)."""
+    from dolfinx.mesh import compute_incident_entities
+    return compute_incident_entities(mesh, entities, dim, other_dim)
+
+
+def petsc_vector(u: fem.Function):
+    """The PETSc vector of a Function (``u.vector`` in 0.5, ``u.x.petsc_vec`` later)."""
+    return u.vector
+
+
+def create_vector(form):
+    """A PETSc vector for assembling the linear ``form`` (takes the function space from 0.10)."""
+    from dolfinx.fem import petsc
+    return petsc.create_vector(form)
+
+
+def apply_lifting(b, forms, bcs, x0, scale: float) -> None:
+    """``b -= scale A (g - x0)`` for the Dirichlet rows (``scale`` is named ``alpha`` later)."""
+    from dolfinx.fem import petsc
+    petsc.apply_lifting(b, forms, [bcs], x0=[x0], scale=scale)
+
+
+def set_bc(b, bcs, x0=None, scale: float = 1.0) -> None:
+    """Set the Dirichlet rows of ``b`` to ``scale (g - x0)`` (``scale`` is named ``alpha`` later)."""
+    from dolfinx.fem import petsc
+    if x0 is None:
+        petsc.set_bc(b, bcs)
+    else:
+        petsc.set_bc(b, bcs, x0, scale)
+
+
 def cell_diameters(mesh, cells: np.ndarray) -> np.ndarray:
     """Largest vertex-to-vertex distance of each of the local ``cells``."""
     x = mesh.geometry.x
-    dofmap = mesh.geometry.dofmap
     nv = {"interval": 2, "triangle": 3, "tetrahedron": 4, "quadrilateral": 4,
-          "hexahedron": 8}[mesh.topology.cell_name()]
-    idx = np.array([dofmap.links(c)[:nv] for c in cells], dtype=np.int64).reshape(len(cells), nv)
+          "hexahedron": 8}[cell_name(mesh)]
+    idx = cell_dofs(mesh.geometry.dofmap)[np.asarray(cells, dtype=np.int64), :nv].reshape(len(cells), nv)
     pts = x[idx]                                           # (n, nv, 3)
     diff = pts[:, :, None, :] - pts[:, None, :, :]
     return np.sqrt((diff ** 2).sum(-1)).max(axis=(1, 2))

@@ -221,13 +221,12 @@ class RigidWheelContact:
             t_T = ufl.conditional(ufl.le(norm, limit), t_tr, limit * t_tr / ufl.max_value(norm, 1e-300))
             traction = traction + t_T
             self._t_T, self._t_tr = t_T, t_tr
-            self._t_T_expr = fem.Expression(t_T, compat.interpolation_points(V))
+            self._t_T_expr = compat.expression(t_T, compat.interpolation_points(V))
             # history lives at the nodes of the surface cells only
             fdim = msh.topology.dim - 1
             msh.topology.create_connectivity(fdim, msh.topology.dim)
             facets = np.concatenate([facet_tags.find(i) for i in ids])
-            from dolfinx.mesh import compute_incident_entities
-            self._hist_cells = np.unique(compute_incident_entities(msh, facets, fdim, msh.topology.dim))
+            self._hist_cells = np.unique(compat.incident_entities(msh, facets, fdim, msh.topology.dim))
             self._t_n_saved = self.t_n.x.array.copy()
         else:
             self.t_n = None
@@ -332,11 +331,10 @@ class RigidWheelContact:
 
 def _contact_cell_size(msh, facet_tags, ids) -> float:
     """Smallest diameter of the cells touching the contact facets (global)."""
-    from dolfinx.mesh import compute_incident_entities
     tdim = msh.topology.dim
     msh.topology.create_connectivity(tdim - 1, tdim)
     facets = np.concatenate([facet_tags.find(i) for i in ids]).astype(np.int32)
-    cells = compute_incident_entities(msh, facets, tdim - 1, tdim)
+    cells = compat.incident_entities(msh, facets, tdim - 1, tdim)
     loc = float(compat.cell_diameters(msh, cells).min()) if cells.size else np.inf
     h = msh.comm.allreduce(loc, op=MPI.MIN)
     if not np.isfinite(h):

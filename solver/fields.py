@@ -59,7 +59,7 @@ class FieldWriter:
         self.p = fem.Function(self.W0, name="p")
         self.layer = fem.Function(self.W0, name="layer")
         n = pb.n_cells
-        self._cell_dofs = self.W0.dofmap.list.array.reshape(-1)[:n]
+        self._cell_dofs = compat.cell_dofs(self.W0.dofmap).reshape(-1)[:n]
         if cell_tags is not None:
             own = cell_tags.indices < n
             self.layer.x.array[self._cell_dofs[cell_tags.indices[own]]] = cell_tags.values[own]
@@ -102,9 +102,9 @@ class FieldWriter:
         msh = self.problem.mesh
         x = msh.geometry.x
         gdim = msh.geometry.dim
-        nv = msh.geometry.dofmap.links(0).size if msh.topology.index_map(msh.topology.dim).size_local else 0
-        gdofs = msh.geometry.dofmap.array.reshape(-1, nv) if nv else np.zeros((0, 0), dtype=np.int32)
-        vdofs = self.V1.dofmap.list.array.reshape(gdofs.shape) if nv else gdofs
+        gdofs = compat.cell_dofs(msh.geometry.dofmap)
+        vdofs = compat.cell_dofs(self.V1.dofmap).reshape(gdofs.shape)
+        nv = gdofs.shape[1]
         disp = np.zeros((x.shape[0], gdim))
         if nv:
             u = self.u1.x.array.reshape(-1, gdim)
@@ -130,10 +130,10 @@ class FieldWriter:
         msh = self.problem.mesh
         tdim, gdim = msh.topology.dim, msh.geometry.dim
         n = msh.topology.index_map(tdim).size_local
-        nv = msh.geometry.dofmap.links(0).size if n else 0
-        gdofs = msh.geometry.dofmap.array.reshape(-1, nv)[:n] if nv else np.zeros((0, 0), dtype=np.int32)
+        gdofs = compat.cell_dofs(msh.geometry.dofmap)[:n]
+        nv = gdofs.shape[1] if n else 0
         u = self.u1.x.array.reshape(-1, gdim)
-        vdofs = self.V1.dofmap.list.array.reshape(-1, nv)[:n] if nv else gdofs
+        vdofs = compat.cell_dofs(self.V1.dofmap)[:n].reshape(gdofs.shape)
         points = msh.geometry.x[gdofs.reshape(-1), :gdim] + displacement_scale * (u[vdofs.reshape(-1)] if nv else 0.0)
         local = (points, np.full(n, nv), self.epeq.x.array[self._cell_dofs[:n]])
         gathered = self.comm.gather(local, root=0)
@@ -143,9 +143,9 @@ class FieldWriter:
         if gdim == 2:
             pts = np.column_stack([pts, np.zeros(len(pts))])
         per_cell = int(max(g[1].max(initial=0) for g in gathered))
-        conn = np.arange(len(pts)).reshape(-1, per_cell)[:, _VTK_ORDER[msh.topology.cell_name()]]
+        conn = np.arange(len(pts)).reshape(-1, per_cell)[:, _VTK_ORDER[compat.cell_name(msh)]]
         npz = pathlib.Path(png_path).with_suffix(".npz")
-        np.savez(npz, points=pts, connectivity=conn, cell_type=_VTK_TYPE[msh.topology.cell_name()],
+        np.savez(npz, points=pts, connectivity=conn, cell_type=_VTK_TYPE[compat.cell_name(msh)],
                  values=np.concatenate([g[2] for g in gathered]))
         # a renderer crash must not take the simulation down: draw in a child process
         # (VTK aborts when DOLFINx/PETSc are loaded in the same process, hence the light module)

@@ -524,10 +524,10 @@ class PlasticityProblem:
             return
         self._F_form = fem.form(sum(self._F_terms[1:], self._F_terms[0]))
         self._J_form = fem.form(sum(self._J_terms[1:], self._J_terms[0]))
-        self._b = fpetsc.create_vector(self._F_form)
+        self._b = compat.create_vector(self._F_form)
         self._A = fpetsc.create_matrix(self._J_form)
-        self._x = self.u.vector.copy()
-        self._x_last = self.u.vector.copy()
+        self._x = compat.petsc_vector(self.u).copy()
+        self._x_last = compat.petsc_vector(self.u).copy()
         snes = PETSc.SNES().create(self.comm)
         snes.setOptionsPrefix(self.options_prefix)
         self._push_options()
@@ -549,7 +549,7 @@ class PlasticityProblem:
             opts[self.options_prefix + k] = val
 
     def _load_x(self, x) -> None:
-        x.copy(self.u.vector)
+        x.copy(compat.petsc_vector(self.u))
         self.u.x.scatter_forward()
 
     def _snes_F(self, snes, x, b) -> None:
@@ -570,9 +570,9 @@ class PlasticityProblem:
         self._force_scale = b.norm()      # includes the reactions: units-consistent floor
         with b.localForm() as b_local:       # ghosts were added to their owners: clear them
             b_local.array[b.getLocalSize():] = 0.0
-        fpetsc.apply_lifting(b, [self._J_form], [self.bcs], x0=[x], scale=-1.0)
+        compat.apply_lifting(b, [self._J_form], self.bcs, x, scale=-1.0)
         b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        fpetsc.set_bc(b, self.bcs, x, -1.0)
+        compat.set_bc(b, self.bcs, x, -1.0)
         self.timings["residual"] += time.perf_counter() - t0
 
     def _snes_J(self, snes, x, A, P) -> None:
@@ -619,7 +619,7 @@ class PlasticityProblem:
         self._compile()
         self._history = []
         t0 = time.perf_counter()
-        self.u.vector.copy(self._x)
+        compat.petsc_vector(self.u).copy(self._x)
         try:
             self.snes.solve(None, self._x)
             reason = self.snes.getConvergedReason()
@@ -718,9 +718,9 @@ class PlasticityProblem:
         nc = self.ncomp
         saved = self.tangent.x.array.copy()
         self._set_owned(self.tangent, self._elastic_tangent())
-        b = fpetsc.create_vector(self._F_form)
+        b = compat.create_vector(self._F_form)
         b.set(1.0)
-        fpetsc.set_bc(b, self.bcs)
+        compat.set_bc(b, self.bcs)
         y = b.duplicate()
         ksp = PETSc.KSP().create(self.comm)
         ksp.setOptionsPrefix(self.options_prefix)    # the Newton iteration's linear solver
