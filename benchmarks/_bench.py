@@ -17,7 +17,7 @@ def dump_json(comm, path: str | None, payload: dict) -> None:
 
 
 def add_volumetric_strain(parser: argparse.ArgumentParser,
-                          help: str = "pointwise (default, the README's figures) or cell-average (B-bar)") -> None:
+                          help: str = "pointwise (default, the documented figures) or cell-average (B-bar)") -> None:
     """``--volumetric-strain``: the soil's strain (the solver classes' default, pointwise, unless given)."""
     parser.add_argument("--volumetric-strain", choices=VOLUMETRIC_STRAINS, default=DEFAULT_VOLUMETRIC_STRAIN,
                         help=help)

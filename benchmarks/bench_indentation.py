@@ -9,7 +9,7 @@
     mpirun -n 2 python benchmarks/bench_indentation.py --solve-cost --accuracy standard accurate \
         --linear-solver direct iterative                                      # cost of one solve
 
-``--volumetric-strain cell-average``: B-bar (README, "Volumetric locking").  ``--checkpoint DIR``:
+``--volumetric-strain cell-average``: B-bar (docs, "Volumetric locking").  ``--checkpoint DIR``:
 the state is written at every reading stop, and the same command started again continues from
 the last one (the accurate preset's hours-long runs over several sittings), on any number of ranks.
 

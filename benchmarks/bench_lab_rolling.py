@@ -2,7 +2,7 @@
 
     mpirun -n 2 python benchmarks/bench_lab_rolling.py --series clay_large clay_small --out bench_lab.json
 
-Data: ``shared/data/lab_rolling.csv`` (steady Q_V of a towed aluminium wheel with a sandpaper
+Data: ``studies/data/lab_rolling.csv`` (steady Q_V of a towed aluminium wheel with a sandpaper
 surface, the bed translated at a fixed sinkage) and ``lab_tests.md``: Duluth clay, phi ~ 0,
 gamma = 18.5 kN/m^3, nu = 0.45; small wheel (d = 77.7 mm, b = 25.4 mm) E = 2 MPa,
 sigma_0 = 72 kPa; large wheel (d = 115.4 mm, b = 38.3 mm) E = 2.5 MPa, sigma_0 = 70 kPa.

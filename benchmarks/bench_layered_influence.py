@@ -3,7 +3,7 @@
     mpirun -n 2 python benchmarks/bench_layered_influence.py --cases 17 18 19 --out bench_layered.json
     mpirun -n 2 python benchmarks/bench_layered_influence.py --cases 13 14 15 --relaxation-length 1
 
-Cases of ``shared/data/cases_layered.csv`` (three layers of 0.4 d over a fixed base; Mn/DOT roller,
+Cases of ``studies/data/cases_layered.csv`` (three layers of 0.4 d over a fixed base; Mn/DOT roller,
 d = 1.524 m, b = 0.4572 m, mu = 0.8, nu = 0.35, gamma = 20 kN/m^3; Drucker-Prager per layer),
 protocol rolling-constant-load at Q_V = 133.5 kN through ``run_scene`` (run directories under
 ``--out-dir``), ``--accuracy`` preset, half block ``--length`` x ``--half-width`` in d and

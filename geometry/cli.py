@@ -12,7 +12,7 @@ from typing import Callable
 from mpi4py import MPI
 
 from rollsim import compat
-from rollsim.geometry.mesh import ACCURACY_REFINEMENT, MeshOptions, TaggedMesh, log
+from rollsim.geometry.mesh import ACCURACY_REFINEMENT, MeshOptions, log
 from rollsim.geometry.render import render_msh
 from rollsim.geometry.soil import (PlaneStrainBlock, build_plane_strain_block, build_soil_block,
                                    indentation_block, rolling_block)

@@ -116,7 +116,7 @@ class SoilBlock:
 class PlaneStrainBlock:
     """2D plane-strain soil block, m: [-half_width, half_width] x [-depth, 0] (x >= 0 if symmetric).
 
-    contact_half_width: the contact zone is the top segment |x| <= contact_half_width
+    contact_half_width: the contact zone is the top segment ``|x| <= contact_half_width``
     refined_half_width, refined_depth: box of fine elements under the footing / cylinder
     layers: thicknesses of the upper layers, top first; the last layer fills the rest
     symmetric: keep x >= 0 only, with a symmetry line at x = 0
@@ -151,7 +151,7 @@ def rolling_block(d: float, length: float = 3.5, half_width: float = 1.5, depth:
                   path_half_width: float = 0.3, refined_depth: float = 0.4) -> SoilBlock:
     """Rolling block in multiples of the wheel diameter ``d`` (m): x in [0, length d].
 
-    The refined strip runs along the whole wheel path (|y| <= path_half_width d, down to
+    The refined strip runs along the whole wheel path (``|y| <= path_half_width d``, down to
     refined_depth d); stiff_length = 0 gives no stiff start zone. The wheel starts at ROLLING_START d.
     """
     return SoilBlock(0.0, length * d, half_width * d, depth * d,
@@ -164,7 +164,7 @@ def indentation_block(d: float, half_size: float = 1.5, depth: float = 1.5, cut:
                       refined_depth: float = 0.5) -> SoilBlock:
     """Indentation block in multiples of ``d`` (m), centred under the wheel (x = y = 0).
 
-    The refined zone is the box |x|, |y| <= refined_half_size d, z >= -refined_depth d (a 0.5 d cube).
+    The refined zone is the box ``|x|, |y| <= refined_half_size d``, ``z >= -refined_depth d`` (a 0.5 d cube).
     """
     r = refined_half_size * d
     return SoilBlock(-half_size * d, half_size * d, half_size * d, depth * d,
@@ -321,7 +321,7 @@ def build_plane_strain_block(comm: MPI.Comm, block: PlaneStrainBlock, opts: Mesh
                              msh_path=None) -> TaggedMesh:
     """Mesh a 2D plane-strain block (triangles, or quadrilaterals with ``opts.hexahedra``).
 
-    Cell tags ``layer_k``; facet tags top, contact (|x| <= contact_half_width), symmetry_x, side, bottom.
+    Cell tags ``layer_k``; facet tags top, contact (``|x| <= contact_half_width``), symmetry_x, side, bottom.
     """
     cell_names = facet_names = None
     with gmsh_model(comm, "plane_strain_block") as model:

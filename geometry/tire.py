@@ -1,9 +1,11 @@
 """Pneumatic tire: rigid hub plus a thin solid carcass (tread, shoulder transition, sidewall).
 
-The carcass profile in the meridian plane (y across, r from the axle), for y >= 0:
+The carcass profile in the meridian plane (y across, r from the axle), for y >= 0::
+
   tread       r in [R - t, R],                y in [0, b/2 - rho]
   transition  quarter ring around C = (b/2 - rho, R - rho), radii [rho - 0.6 t, rho]
   sidewall    y in [b/2 - 0.2 t, b/2],         r in [d_h/2, R - rho]
+
 with R = d/2, t = tread thickness (reference 0.046 d), rho = shoulder radius. The outer surface is
 smooth; the inner (air) surface has small steps where the thickness changes. The hub is rigid and
 not meshed: the carcass is clamped to it on the ``hub_rim`` (bead) faces at r = d_h/2.

@@ -1,3 +1,5 @@
+"""``python -m rollsim``."""
 from rollsim.cli import entry
 
-entry()
+if __name__ == "__main__":
+    entry()

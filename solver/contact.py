@@ -29,7 +29,7 @@ of the discrete law; non-symmetric with friction, fine for LU).
 Penalty parameters: ``kappa = alpha E / h`` (``h`` the element size at the contact surface, ``E``
 the largest Young modulus of the soil), ``k_T = kappa``; the penetration error is ``p_N / kappa``
 = ``(p_N / E) (h / alpha)``.  The default ``alpha`` (:data:`DEFAULT_PENALTY`) comes from the
-measurement in ``benchmarks/bench_contact_hertz.py`` (README, "Wheel contact, indentation").
+measurement in ``benchmarks/bench_contact_hertz.py`` (docs, "Wheel contact, indentation").
 
 Forces are reported on the wheel (the negative of the force on the soil), for the modelled part
 of the wheel only (the symmetry factor is applied by the callers).
@@ -48,7 +48,7 @@ from rollsim import compat
 
 __all__ = ["Circle", "RigidWheelContact", "WheelForces", "ufl_signed_distance", "DEFAULT_PENALTY"]
 
-#: Default penalty factor alpha in kappa = alpha E / h (measured: README, "Wheel contact, indentation").
+#: Default penalty factor alpha in kappa = alpha E / h (measured: docs, "Wheel contact, indentation").
 DEFAULT_PENALTY = 10.0
 
 

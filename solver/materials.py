@@ -46,7 +46,7 @@ Mohr-Coulomb (c, phi) -> Drucker-Prager (c_dp, phi_dp) matchings
   steeper than the associated one (phi = 40 deg, psi = 0: tan(phi_dp) = 1.113 against 1.044).
   ``"plane_strain"`` keeps the associated formula whatever ``psi`` is (the c = 0 wheel runs were
   tuned and measured with it): with ``psi = 0`` it is, in plane strain, a Mohr-Coulomb soil of
-  28.7 / 33.0 / 37.1 / 40.9 deg for phi = 30 / 35 / 40 / 45 deg (README, "Plane-strain match and
+  28.7 / 33.0 / 37.1 / 40.9 deg for phi = 30 / 35 / 40 / 45 deg (docs, "Plane-strain match and
   non-associated flow").
 """
 from __future__ import annotations
@@ -70,7 +70,7 @@ __all__ = ["VonMises", "DruckerPrager", "mc_to_dp", "dp_to_mc", "von_mises_from_
 #: Above this Mohr-Coulomb angle (asin 0.6 = 36.87 deg) the compression-matched Drucker-Prager cone
 #: has tan(phi_dp) >= 1.5: it has no extension-matched Mohr-Coulomb angle, i.e. it is stronger in
 #: triaxial extension than any Mohr-Coulomb material.  With psi = 0 such cones stalled the 3D wheel
-#: indentation at s/d < 0.002 (README, "Purely frictional soil"); prefer the plane-strain match there.
+#: indentation at s/d < 0.002 (docs, "Purely frictional soil"); prefer the plane-strain match there.
 PHI_COMPRESSION_MATCH_LIMIT = math.asin(0.6)
 
 MATCHINGS = ("compression", "extension", "plane_strain", "plane_strain_flow")

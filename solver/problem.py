@@ -66,7 +66,7 @@ DEFAULT_PETSC_OPTIONS = {
 #: ``(0, 0)`` switches it off.  Non-associated Drucker-Prager sand (layered cases 13-15) stalls at
 #: flat plateaus, frictional contact cycles between two active sets; both used to iterate to
 #: ``snes_max_it``.  Chosen on recorded residual histories: none of 100 converged solves of the sand
-#: nor of 82 of the erratic c = 0 footing (basic line search) meets it (README "Newton plateaus").
+#: nor of 82 of the erratic c = 0 footing (basic line search) meets it (docs, "Newton plateaus").
 STAGNATION = (3, 1e-3)
 
 #: ``linear_solver="auto"`` (see :data:`rollsim.solver.options.LINEAR_SOLVERS`): direct (MUMPS LU,
@@ -209,10 +209,10 @@ class PlasticityProblem:
     volumetric_strain : ``"cell-average"`` (B-bar): the volumetric part of every strain
         (trial, test and increment) is replaced by its cell average, so each cell carries one
         incompressibility constraint instead of one per quadrature point - P2 tetrahedra lock
-        under isochoric plastic flow otherwise (README, "Volumetric locking"). Exact cell average
+        under isochoric plastic flow otherwise (docs, "Volumetric locking"). Exact cell average
         for P2 on affine cells (div u is linear there), a first-order Taylor value on curved cells
         and in updated-Lagrangian steps. ``"pointwise"`` (default, :data:`DEFAULT_VOLUMETRIC_STRAIN`
-        until the README's figures are re-measured with B-bar): the plain strain.
+        until the documented figures are re-measured with B-bar): the plain strain.
     """
 
     def __init__(self, mesh, material, bcs: Sequence = (), *, degree: int = 2,

@@ -51,7 +51,7 @@ DEFAULT_ROLL_CONTROL = dict(dt=0.25, dt_min=1e-3, dt_max=0.5, easy_iterations=8,
 #: constant load: travel of the wheel centre on the test soil (past the stiff start zone), in d,
 #: before steady state is looked for.  Leaving the stiff zone the wheel overshoots, and one
 #: window on the overshoot's plateau can look steady; on the fast preset the plateau ended
-#: 0.3-0.6 d past the zone's end and the sinkage had settled by 0.7-0.95 d (README, "Do the two
+#: 0.3-0.6 d past the zone's end and the sinkage had settled by 0.7-0.95 d (docs, "Do the two
 #: protocols agree?" and the Mn/DOT run)
 STEADY_MIN_TRAVEL = 0.75
 

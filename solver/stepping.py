@@ -1,6 +1,6 @@
 """Adaptive load stepping: step cutting on divergence, growth after easy steps, clean failure.
 
-Robustness features (measurements in the README, "Purely frictional soil"):
+Robustness features (measurements in the docs, "Purely frictional soil"):
 
 * **extrapolated predictor** (``StepControl.predictor = "extrapolate"``; ``StripFooting`` uses
   it by default, ``StepControl`` keeps ``"none"`` for backward compatibility): Newton starts

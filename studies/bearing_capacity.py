@@ -1,8 +1,8 @@
 """The bearing-capacity wheel model: the wheel's contact patch as a shallow footing.
 
-Implements ``shared/spec/bearing-capacity-model.md`` (Mn/DOT report "Development of
-Improved Test Rolling Methods for Roadway Embankment Construction", Ch. 3 and
-App. A) from the general Meyerhof formula, every wheel case derived from it.
+Implements the bearing-capacity wheel model (docs/theory.md) of the Mn/DOT report "Development of
+Improved Test Rolling Methods for Roadway Embankment Construction" (Ch. 3 and App. A) from the
+general Meyerhof formula, every wheel case derived from it.
 Everything is vectorised: arguments broadcast as numpy arrays. SI units; angles in
 radians (``phi``, ``beta``).
 

@@ -43,7 +43,7 @@ LOADS = (53e3, 89e3, 133.5e3)  # N
 GAMMA = 20e3  # N/m^3, the report's parametric-study unit weight
 C_MIN, PHI_MIN = 170e3, math.radians(48.0)  # minimum strengths of the report's design example
 WEAK_CLAY = 20e3  # Pa, cohesion of the weak lower layer in the influence-depth cases
-# soil properties of the laboratory tests (shared/data/lab_tests.md): c (Pa), phi (deg), gamma (N/m^3)
+# soil properties of the laboratory tests (docs/validation.md): c (Pa), phi (deg), gamma (N/m^3)
 LAB_SOILS = {"clay_small": (72e3 / 2, 0.0, 18.5e3), "clay_large": (70e3 / 2, 0.0, 18.5e3),
              "sand_loose": (0.0, 35.5, 16.0e3), "sand_dense": (0.0, 42.0, 17.4e3)}
 LAB_APPARENT_COHESION = {"sand_loose": 4.0e3, "sand_dense": 6.5e3}

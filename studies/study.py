@@ -17,7 +17,7 @@ A study file (TOML)::
     "wheel.friction" = [0.4, 0.8]
 
     [[sweep]]                                     # or the rows of a CSV (e.g. the report's cases)
-    csv = "../../shared/data/cases_indentation.csv"
+    csv = "../data/cases_indentation.csv"
     rows = [1, 2, 3]                              # optional, by the CSV's "case" column
     "wheel.diameter" = "{d_m} m"                  # scene key = template over the row's columns
     "soil.layers[0].c_dp" = "{c_dp_kPa} kPa"

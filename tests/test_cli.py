@@ -1,4 +1,4 @@
-"""The command-line contract of shared/spec/interfaces.md: outputs, exit codes, one-line errors."""
+"""The command-line contract (docs/cli.md): outputs, exit codes, one-line errors."""
 import json
 import math
 

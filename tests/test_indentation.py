@@ -56,7 +56,7 @@ def test_elastic_wheel_stiffness_matches_flat_punch_estimate(comm):
 @pytest.mark.slow
 @pytest.mark.parametrize("case", [2, 5])
 def test_indentation_report_case_vs_bearing_capacity(comm, case):
-    """Report cases (shared/data/cases_indentation.csv) 2 (von Mises c_dp = 200 kPa) and 5 (DP 27.5 deg,
+    """Report cases (studies/data/cases_indentation.csv) 2 (von Mises c_dp = 200 kPa) and 5 (DP 27.5 deg,
     c_dp = 194.6 kPa), gamma = 20 kN/m^3, mu = 0.8, fast preset, quarter model: Q_V at s/d = 0.05
     within a loose band [0.7, 1.6] of the bearing-capacity model (indentation, D = s) with the
     compression-matched Mohr-Coulomb parameters.  Measured (fast, alpha = 10): FE/BC = 1.15 (case 2)
@@ -98,7 +98,7 @@ def test_purely_frictional_soil_with_gravity_converges(comm):
     """c = 0, phi = 40 deg, psi = 0 with gravity, mu = 0.8: indentation to s/d = 0.03 converges (the
     runs to s/d = 0.1 for phi = 35/40/45 are in benchmarks/bench_frictional_wheel.py).
 
-    What makes it run (README, "Purely frictional soil (c = 0) under the wheel"; measured): the
+    What makes it run (docs, "Purely frictional soil (c = 0) under the wheel"; measured): the
     plane-strain Drucker-Prager match (the compression match at phi = 40 deg, tan(phi_dp) = 1.64,
     is stronger in triaxial extension than any Mohr-Coulomb soil and stalled at s/d = 0.0004 with
     psi = 0, with or without cohesion), the
@@ -130,7 +130,7 @@ def test_frictional_wheel_sensitivity_to_regularising_cohesion(comm):
     """Halving c_reg (1 -> 0.5 kPa) lowers Q_V at s/d = 0.02, by less than 20 %.  Measured: 25.3 ->
     21.9 kN (-13 %; c = 0 exactly: 16.6-18.8 kN, depending on the steps).  This is a regression guard on a measured, NOT
     negligible sensitivity: near the surface gamma z tan(phi) is itself of order 1 kPa
-    (README, "Purely frictional soil")."""
+    (docs, "Purely frictional soil")."""
     q = {}
     for c_reg in (1e3, 0.5e3):
         ind = _frictional(comm, c_reg)

@@ -84,7 +84,7 @@ def test_updated_lagrangian_strip_footing_gains_capacity_with_penetration(comm):
         res = fo.run(0.1, StepControl(t_end=1.0, dt=0.02, dt_max=0.05, dt_min=1e-5, predictor="extrapolate"))
         p[kin] = [float(np.interp(w, res.displacement, res.pressure)) / c for w in (0.02, 0.05, 0.1)]
     ss, ul = p["small-strain"], p["updated-lagrangian"]
-    assert ss[2] == pytest.approx(2 + np.pi, rel=0.06)            # coarse mesh, from above (README)
+    assert ss[2] == pytest.approx(2 + np.pi, rel=0.06)            # coarse mesh, from above (docs/verification.md)
     assert abs(ul[0] / ss[0] - 1) < 0.03
     assert ul[2] / ss[2] - 1 > 0.10 and ul[2] > ul[1] > ul[0]
     assert abs(ss[2] / ss[1] - 1) < 0.01                           # small strain: plateau

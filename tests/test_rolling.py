@@ -263,7 +263,7 @@ def test_steady_state_detection():
 
 def test_steady_state_waits_for_the_overshoot_to_decay():
     """The wheel leaving the stiff zone overshoots: a plateau at 21 mm for 0.7 m, then a decay to
-    15 mm (the shape of the fast-mesh runs in the README).  Without a minimum travel the detector
+    15 mm (the shape of the fast-mesh runs in docs/benchmarks.md).  Without a minimum travel the detector
     takes the plateau for steady rolling; with ``min_travel`` = 1.5 m it reports the final 15 mm."""
     x_start, x_soft, L = 0.6, 1.1, 0.2
     x = np.arange(0.0, 3.5, 0.02)

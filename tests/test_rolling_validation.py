@@ -1,7 +1,7 @@
 """Fast variants of the rolling validations (full runs: benchmarks/bench_lab_rolling.py,
-bench_rolling_protocols.py; figures in the README, "Rolling").
+bench_rolling_protocols.py; figures in the docs, "Rolling").
 
-Laboratory rolling on the soft clay (shared/data/lab_tests.md, studies/data/lab_rolling.csv): the
+Laboratory rolling on the soft clay (studies/data/lab_rolling.csv): the
 small aluminium wheel held at the smallest measured sinkage, on the lab bed's cross-section.
 """
 from __future__ import annotations
@@ -49,6 +49,6 @@ def test_lab_small_wheel_held_at_smallest_sinkage(comm):
     assert len(late) >= 3
     fe = float(np.mean(late))
     model = float(wheel_forces(s_hold, Wheel(d, b), Soil(c, 0.0, gamma)).QV)
-    assert model / q_lab == pytest.approx(3.20, abs=0.01)           # README table
+    assert model / q_lab == pytest.approx(3.20, abs=0.01)           # docs/validation.md
     assert q_lab < fe < model, (fe, model, q_lab)
     assert fe == pytest.approx(35.6, rel=0.03)       # the benchmark's 1.5 d hold (35.6 +- 0.4 N); 35.7 N here

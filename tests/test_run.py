@@ -1,4 +1,4 @@
-"""run_scene (solver/run.py): the run directory of shared/spec/interfaces.md, failures, protocols."""
+"""run_scene (solver/run.py): the run directory (docs/cli.md), failures, protocols."""
 from __future__ import annotations
 
 import csv

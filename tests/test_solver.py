@@ -409,7 +409,7 @@ def test_newton_stops_at_a_residual_plateau(comm):
     assert STAGNATION == (3, 1e-3)
     local_min = PETSc.SNES.ConvergedReason.DIVERGED_LOCAL_MIN
     iterating = PETSc.SNES.ConvergedReason.ITERATING
-    plateau = [1e5, 2e3, 42.0, 42.0, 41.99, 41.99]                 # the sand of README "Newton plateaus"
+    plateau = [1e5, 2e3, 42.0, 42.0, 41.99, 41.99]                 # the sand of docs, "Newton plateaus"
     assert reasons(plateau) == [iterating] * 5 + [local_min]
     cycle = [1e5, 3e3, 553.0, 494.0, 553.0, 494.0, 553.0]           # frictional contact
     assert reasons(cycle) == [iterating] * 6 + [local_min]

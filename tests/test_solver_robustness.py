@@ -97,9 +97,9 @@ def test_bbar_underestimates_nonassociated_c0_footing_on_coarse_meshes(comm):
     triangles): on n = 2 N_gamma falls below the Davis estimate of the same mesh, and it rises with
     refinement (from below), while the pointwise strain stays in the band on both meshes.  Measured
     at settlement 0.005 B: B-bar 4.021 -> 5.411 (n = 2 -> 4; Davis 6.787 / 5.407; 6.28 at n = 8 in
-    the benchmark), pointwise 8.007 -> 7.707 (associated 9.895 / 8.774).  Why the README's c = 0
+    the benchmark), pointwise 8.007 -> 7.707 (associated 9.895 / 8.774).  Why the documented c = 0
     wheel figures with B-bar (the indentation default) are lower values on a coarse mesh
-    (README, "Plane-strain match and non-associated flow").  A weightless c-phi soil (phi = 20 deg)
+    (docs, "Plane-strain match and non-associated flow").  A weightless c-phi soil (phi = 20 deg)
     shows no such anomaly (one-off, n = 2 and 4: p/c = 13.7-14.0 with B-bar, 14.4-15.0 pointwise,
     against the Davis estimate 13.0 and the exact associated 14.8)."""
     phi = 30 * DEG

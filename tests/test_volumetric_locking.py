@@ -4,7 +4,7 @@ Independent references: the cell average of div u computed by quadrature of the 
 Prandtl's (2 + pi) c for a smooth rigid strip on weightless Tresca soil - here in 3D, on a slab of
 tetrahedra held in plane strain, where the pointwise strain locks.  2D Prandtl with both
 formulations: tests/test_solver.py; full figures: benchmarks/bench_solver_prandtl.py and
-benchmarks/bench_indentation.py (README, "Volumetric locking").
+benchmarks/bench_indentation.py (docs, "Volumetric locking").
 """
 from __future__ import annotations
 
