@@ -82,46 +82,70 @@ def force_sinkage_figure(out: pathlib.Path, cases: list[dict]) -> list[str]:
     return names
 
 
+def case_parameters(study: dict) -> dict[str, dict]:
+    """``{case: {parameter: value}}`` of a study.json: SI numbers (choices as given)."""
+    return {c["name"]: c.get("parameters") or {k: _number(v) for k, v in c["overrides"].items()}
+            for c in study["cases"]}
+
+
+def effect_series(params: dict[str, dict], names: list[str], key: str) -> list[list[str]]:
+    """The cases to join by one line in the effect plot of ``key``: those that share every other
+    swept parameter, each series ordered by ``key``; series of a single case are dropped."""
+    series: dict = {}
+    for name in names:
+        p = params[name]
+        rest = tuple(sorted((k, repr(v)) for k, v in p.items() if k != key))
+        series.setdefault(rest, []).append(name)
+    return [sorted(group, key=lambda n: params[n][key]) for group in series.values() if len(group) > 1]
+
+
 def effect_figures(out: pathlib.Path, study: dict, rows: list[dict], load_tag: str | None) -> list[tuple[str, str]]:
-    """Sinkage at the first reference load vs every swept numeric key; pairs for two-valued keys."""
+    """Sinkage at the first reference load vs every swept numeric parameter (one line per set of
+    cases that differ in that parameter only); pairs for two-valued parameters."""
     if load_tag is None:
         return []
     plt = _plt()
-    keys = list(dict.fromkeys(k for c in study["cases"] for k in c["overrides"]))
+    params = case_parameters(study)
+    ok = {r["case"]: r for r in rows if r.get("status") == "ok"}
+    keys = list(dict.fromkeys(k for p in params.values() for k in p))
     figures = []
-    ok = [r for r in rows if r.get("status") == "ok"]
     for key in keys:
-        values = [_number(r.get(key)) for r in ok]
-        if any(v is None for v in values) or len(set(values)) < 2:
+        names = [n for n in ok if isinstance(params[n].get(key), (int, float))]
+        values = {params[n][key] for n in names}
+        if len(values) < 2:
             continue
-        s = np.array([float(r.get(f"sinkage_{load_tag}_m") or "nan") for r in ok])
-        m = np.array([float(r.get(f"model_sinkage_{load_tag}_m") or "nan") for r in ok])
-        v = np.array(values)
-        order = np.argsort(v)
+        series = effect_series({n: params[n] for n in names}, names, key)
+        if not series:
+            continue
         fig, ax = plt.subplots(figsize=(6.5, 4.2))
-        ax.plot(v[order], 1e3 * m[order], "-", color="0.4", label="bearing-capacity model")
-        ax.plot(v, 1e3 * s, "o", color="C3", label="computed")
-        ax.set(xlabel=f"{key} (SI)", ylabel=f"sinkage at {load_tag} (mm)", title=f"Effect of {key}")
+        for i, group in enumerate(series):
+            v = [params[n][key] for n in group]
+            s = [1e3 * float(ok[n].get(f"sinkage_{load_tag}_m") or "nan") for n in group]
+            m = [1e3 * float(ok[n].get(f"model_sinkage_{load_tag}_m") or "nan") for n in group]
+            ax.plot(v, m, "-", color="0.4", lw=1, label="bearing-capacity model" if i == 0 else None)
+            ax.plot(v, s, "o-", color=f"C{(i + 3) % 10}", ms=4, lw=0.8, label="computed" if i == 0 else None)
+        ax.set(xlabel=key, ylabel=f"sinkage at {load_tag} (mm)", title=f"Effect of {key}")
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)
         name = f"effect_{_safe(key)}.png"
         fig.tight_layout()
         fig.savefig(out / name, dpi=120)
         plt.close(fig)
-        figures.append((name, f"sinkage at {load_tag} against {key}"))
-        distinct = sorted(set(values))
+        figures.append((name, f"sinkage at {load_tag} against {key} (a line joins cases that differ in it only)"))
+        distinct = sorted(values)
         if len(distinct) == 2:
-            figures += _pair_figure(out, key, ok, keys, distinct, load_tag)
+            figures += _pair_figure(out, key, [ok[n] for n in names], params, distinct, load_tag)
     return figures
 
 
-def _pair_figure(out, key, ok, keys, distinct, load_tag):
+def _pair_figure(out, key, ok, params, distinct, load_tag):
     """Cases that differ only in ``key`` (two values): sinkage with one value against the other."""
     plt = _plt()
-    others = [k for k in keys if k != key]
     by_rest: dict = {}
     for r in ok:
-        by_rest.setdefault(tuple(r.get(k) for k in others), {})[_number(r.get(key))] = r
+        p = params[r["case"]]
+        rest = tuple(sorted((k, repr(v)) for k, v in p.items() if k != key))
+        by_rest.setdefault(rest, {})[p[key]] = r
     pairs = [(g[distinct[0]], g[distinct[1]]) for g in by_rest.values() if len(g) == 2]
     if not pairs:
         return []
@@ -189,8 +213,14 @@ def write_report(directory) -> pathlib.Path:
     n_ok = sum(r.get("status") == "ok" for r in rows)
     text = [f"# Study report: {pathlib.Path(study['study']).name}", "",
             f"{len(rows)} cases ({n_ok} ok), runner `{study['runner']}`; reference loads "
-            + (", ".join(f"{v / 1e3:g} kN" for v in loads) or "none") + ".", "",
-            "## Force-sinkage curves", ""]
+            + (", ".join(f"{v / 1e3:g} kN" for v in loads) or "none") + ".", ""]
+    for why, names in (study.get("rerun") or {}).items():
+        if names:
+            text += [f"Rerun because {why} since the last run: {', '.join(names)}.", ""]
+    for key in study.get("no_effect") or []:
+        text += [f"Note: `{key}` is swept, but the {study['runner']} runner does not use it; "
+                 "its cases give the same result.", ""]
+    text += ["## Force-sinkage curves", ""]
     text += [f"![force-sinkage]({name})" for name in curves] or ["(no completed case)"]
     if effects:
         text += ["", "## Parameter effects", ""]

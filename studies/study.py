@@ -23,14 +23,19 @@ A study file (TOML)::
     "soil.layers[0].c_dp" = "{c_dp_kPa} kPa"
 
 Results: ``DIR/cases/<case>/`` (one run directory each, ``summary.json`` written last),
-``DIR/results.csv`` (rewritten atomically), ``DIR/study.json`` (the expanded cases).
-A case whose ``summary.json`` exists is complete and is not run again; a
-half-written case directory is cleared and rerun.
+``DIR/results.csv`` (rewritten atomically; swept parameters as SI numbers, the unit in the
+column name), ``DIR/study.json`` (the expanded cases).
+
+Resume: each case's ``summary.json`` records a fingerprint of what produced it (the fully
+resolved scene, the runner and its options, the package version).  A case whose summary is
+present, readable and of the same fingerprint is not run again; a changed case (an edited
+``[set]``, base scene, sweep value or CSV row) or a corrupt or half-written one is rerun.
 """
 from __future__ import annotations
 
 import copy
 import csv
+import hashlib
 import itertools
 import json
 import math
@@ -45,6 +50,7 @@ from typing import Callable
 import numpy as np
 from mpi4py import MPI
 
+from rollsim import __version__
 from rollsim.files import atomic_write_text
 from rollsim.log import get_logger
 from rollsim.scene import Scene, parse_scene
@@ -103,6 +109,34 @@ def set_key(data: dict, key: str, value) -> None:
                 items[int(index)] = value
             else:
                 node = items[int(index)]
+
+
+#: unit of a scene quantity, by its key's last part: the suffix of its results.csv column
+UNIT_OF_KEY = {**dict.fromkeys(("diameter", "width", "fillet", "hub_diameter", "t_tread", "thickness", "max_sinkage",
+                                "travel", "relaxation_length"), "m"),
+               **dict.fromkeys(("E", "c", "c_dp", "inflation", "E_carcass", "regularising_cohesion"), "Pa"),
+               **dict.fromkeys(("phi", "phi_dp", "dilation"), "deg"),
+               "gamma": "N_per_m3", "load": "N"}
+
+
+def scene_value(scene: Scene, key: str):
+    """The value of the dotted ``key`` in the resolved scene: SI, angles in degrees."""
+    node = scene.to_dict()
+    for part in key.split("."):
+        name, index = _INDEX.match(part).groups()
+        node = node[name] if index is None else node[name][int(index)]
+    return node
+
+
+def parameters(case: "Case") -> dict:
+    """``{results.csv column: value}`` of the case's swept keys: SI numbers with the unit in the
+    column name (``soil.layers[0].E_Pa``), choices as given."""
+    out = {}
+    for key in case.overrides:
+        value = scene_value(case.scene, key)
+        unit = UNIT_OF_KEY.get(key.rpartition(".")[2].split("[")[0])
+        out[f"{key}_{unit}" if unit and isinstance(value, (int, float)) else key] = value
+    return out
 
 
 def _short(key: str, value) -> str:
@@ -223,9 +257,42 @@ def load_study(path) -> Study:
 
 
 # ----------------------------------------------------------------------- execution
-def case_done(case_dir: pathlib.Path) -> bool:
-    """A case is complete when its summary.json exists (it is written last, atomically)."""
-    return (case_dir / "summary.json").is_file()
+def fingerprint(case: "Case", study: "Study") -> str:
+    """Content hash of what a case's result depends on: the resolved scene (SI), the runner, the
+    reference loads and the package version."""
+    content = {"scene": case.scene.to_dict(), "runner": study.runner,
+               "reference_loads_N": list(study.reference_loads), "version": __version__}
+    return hashlib.sha256(json.dumps(content, sort_keys=True, default=str).encode()).hexdigest()
+
+
+def case_state(case_dir: pathlib.Path, expected: str) -> str:
+    """``"done"`` (summary.json readable, same fingerprint), ``"changed"`` (another fingerprint),
+    ``"corrupt"`` (unreadable or incomplete) or ``"new"`` (no summary)."""
+    path = case_dir / "summary.json"
+    if not path.is_file():
+        return "new"
+    try:
+        summary = json.loads(path.read_text())
+        status, recorded = summary["status"], summary.get("fingerprint")
+    except (OSError, UnicodeDecodeError, ValueError, KeyError, TypeError):
+        return "corrupt"
+    if not isinstance(status, str):
+        return "corrupt"
+    return "done" if recorded == expected else "changed"
+
+
+def _plan(study: "Study", out: pathlib.Path, comm: MPI.Comm) -> dict:
+    """``{case name: state}`` read on rank 0 and broadcast (every rank runs the same cases)."""
+    states, error = None, None
+    if comm.rank == 0:
+        try:
+            states = {c.name: case_state(out / "cases" / c.name, fingerprint(c, study)) for c in study.cases}
+        except Exception as exc:  # noqa: BLE001 - raised below on every rank
+            error = f"{type(exc).__name__}: {exc}"
+    states, error = comm.bcast((states, error), root=0)
+    if error is not None:
+        raise RuntimeError(f"reading the finished cases of {out}: {error}")
+    return states
 
 
 CaseRunner = Callable[[Case, pathlib.Path, MPI.Comm], dict]
@@ -239,20 +306,30 @@ def run_study(study: Study, out, comm: MPI.Comm, runner: CaseRunner, *, quiet: b
     interrupted by a signal (SIGINT/SIGTERM/SIGUSR1) stops its group and is rerun on resume.
     """
     out = pathlib.Path(out)
+    states = _plan(study, out, comm)
+    todo = [c for c in study.cases if states[c.name] != "done"]
+    rerun = {why: [n for n, st in states.items() if st == why] for why in ("changed", "corrupt")}
+    no_effect = ineffective_keys(study)
     if comm.rank == 0:
         (out / "cases").mkdir(parents=True, exist_ok=True)
         atomic_write_text(out / "study.json", json.dumps(
             {"study": str(study.path), "runner": study.runner, "reference_loads_N": study.reference_loads,
-             "cases": [{"name": c.name, "overrides": c.overrides} for c in study.cases]}, indent=2))
+             "rerun": rerun, "no_effect": no_effect,
+             "cases": [{"name": c.name, "overrides": c.overrides, "parameters": parameters(c)}
+                       for c in study.cases]}, indent=2))
+        for key in no_effect:
+            log.warning("study %s: %s is swept but the %s runner does not use it: its cases give the same result",
+                        study.path.name, key, study.runner)
     comm.barrier()
-    todo = [c for c in study.cases if not case_done(out / "cases" / c.name)]
     size = min(study.ranks_per_case, comm.size)
     n_groups = comm.size // size
     group = min(comm.rank // size, n_groups - 1)
     sub = comm.Split(color=group, key=comm.rank)
     if comm.rank == 0 and not quiet:
-        log.info("study %s: %d cases, %d done before, %d to run on %d group(s) of %d rank(s)",
-                 study.path.name, len(study.cases), len(study.cases) - len(todo), len(todo), n_groups, size)
+        changed = "".join(f", {len(v)} {why} since the last run (rerun)" for why, v in rerun.items() if v)
+        log.info("study %s: %d cases, %d done before%s, %d to run on %d group(s) of %d rank(s)",
+                 study.path.name, len(study.cases), sum(st == "done" for st in states.values()), changed,
+                 len(todo), n_groups, size)
     try:
         for i, case in enumerate(todo):
             if i % n_groups != group:
@@ -276,6 +353,7 @@ def run_study(study: Study, out, comm: MPI.Comm, runner: CaseRunner, *, quiet: b
                 break
             summary.setdefault("wall_time_s", time.perf_counter() - t0)
             summary["case"] = case.name
+            summary["fingerprint"] = fingerprint(case, study)
             if sub.rank == 0:
                 atomic_write_text(case_dir / "summary.json", json.dumps(summary, indent=2, default=float))
                 if not quiet:
@@ -295,7 +373,7 @@ def collect_results(study: Study, out: pathlib.Path) -> list[dict]:
         path = out / "cases" / case.name / "summary.json"
         summary = json.loads(path.read_text()) if path.is_file() else {"status": "not run"}
         row = {"case": case.name}
-        row.update({k: v for k, v in case.overrides.items()})
+        row.update(parameters(case))
         row["status"] = summary.get("status")
         row.update(summary.get("comparison", {}))
         rows.append(row)
@@ -314,9 +392,31 @@ def _csv_cell(value) -> str:
     return f'"{text}"' if ("," in text or '"' in text) else text
 
 
+def ineffective_keys(study: "Study") -> list[str]:
+    """Swept keys that the study's runner does not use: the analytic runner reads only the
+    bearing-capacity model's inputs (wheel, top layer's strength, unit weight, protocol), so a
+    swept E, nu, friction, dilation or mesh preset changes nothing.  Empty for the FE runner."""
+    if study.runner != "analytic":
+        return []
+    keys = list(dict.fromkeys(k for c in study.cases for k in c.overrides))
+    inputs = {c.name: repr(model_inputs(c.scene)) for c in study.cases}
+    found = []
+    for key in keys:
+        groups: dict = {}
+        for c in study.cases:
+            rest = tuple(sorted((k, repr(v)) for k, v in c.overrides.items() if k != key))
+            groups.setdefault(rest, []).append(c)
+        varied = [g for g in groups.values() if len({repr(c.overrides.get(key)) for c in g}) > 1]
+        if varied and all(len({inputs[c.name] for c in g}) == 1 for g in varied):
+            found.append(key)
+    return found
+
+
 # ---------------------------------------------------------- curves and comparisons
-def compare_with_model(scene: Scene, sinkage_m, QV_N, reference_loads) -> dict:
-    """Fit k1..k4, R^2, sinkage at the reference loads, and the bearing-capacity model's for the same case."""
+def compare_with_model(scene: Scene, sinkage_m, QV_N, reference_loads, *, exact_curve: bool = False) -> dict:
+    """Fit k1..k4, R^2, sinkage at the reference loads, and the bearing-capacity model's for the
+    same case.  ``exact_curve``: the curve is the model's own (the analytic runner), so its sinkage
+    at a load is the model's root, not a reading between sampled points."""
     from rollsim.studies import bearing_capacity as bc
     from rollsim.studies.fit import fit_force_sinkage, sinkage_at_loads
     d, gamma = scene.wheel.diameter, scene.soil.gamma
@@ -326,9 +426,9 @@ def compare_with_model(scene: Scene, sinkage_m, QV_N, reference_loads) -> dict:
     wheel, soil, opts = model_inputs(scene)
     for load in reference_loads:
         tag = f"{load / 1e3:g}kN"
-        s_curve = float(sinkage_at_loads(sinkage_m, QV_N, [load])[0])
         r = bc.sinkage(load, wheel, soil, opts)
         s_model = float(r.sinkage)
+        s_curve = s_model if exact_curve else float(sinkage_at_loads(sinkage_m, QV_N, [load])[0])
         row[f"sinkage_{tag}_m"] = s_curve
         row[f"model_sinkage_{tag}_m"] = s_model
         row[f"ratio_{tag}"] = s_curve / s_model if s_model > 0 else float("nan")
@@ -380,7 +480,8 @@ def analytic_runner(reference_loads) -> CaseRunner:
             lines += [f"{i + 1},{a:.9g},{b:.9g},{c:.9g},0" for i, (a, b, c) in enumerate(zip(s, f.QV, f.QH))]
             atomic_write_text(case_dir / "history.csv", "\n".join(lines) + "\n")
         return {"status": "ok", "runner": "analytic", "scene": scene.to_dict(), "ranks": comm.size,
-                "history": "history.csv", "comparison": compare_with_model(scene, s, f.QV, reference_loads)}
+                "history": "history.csv",
+                "comparison": compare_with_model(scene, s, f.QV, reference_loads, exact_curve=True)}
     return run
 
 

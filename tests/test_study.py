@@ -176,13 +176,16 @@ def test_report_from_small_study(tmp_mpi_path):
     if MPI.COMM_WORLD.rank == 0:
         report = (out / "report.md").read_text()
         assert "![force-sinkage](force_sinkage.png)" in report and "| case |" in report
-        for name in ("force_sinkage.png", "effect_soil_layers_0_E.png", "pair_wheel_friction.png"):
+        for name in ("force_sinkage.png", "effect_soil_layers_0_E_Pa.png", "pair_wheel_friction.png"):
             assert (out / name).stat().st_size > 0
-        # the analytic runner against the model itself: ratio 1 up to the curve's interpolation
+        # the analytic runner against the model itself: its sinkage is the model's own root
         rows = (out / "results.csv").read_text().splitlines()
         header = rows[0].split(",")
         ratio = [float(r.split(",")[header.index("ratio_100kN")]) for r in rows[1:]]
-        assert all(abs(x - 1) < 0.02 for x in ratio)
+        assert all(abs(x - 1) < 1e-12 for x in ratio), ratio
+        # E and the friction do not enter the model: flagged in the report
+        assert "`soil.layers[0].E` is swept, but the analytic runner does not use it" in report
+        assert "`wheel.friction` is swept" in report and "`wheel.diameter` is swept" not in report
 
 
 @pytest.mark.serial

@@ -1,0 +1,119 @@
+"""Study outputs a user can trust: SI numbers in results.csv, effect lines that join only cases
+differing in the plotted parameter, resume that reruns changed and corrupt cases."""
+from __future__ import annotations
+
+import csv
+import json
+import pathlib
+
+import pytest
+from mpi4py import MPI
+
+from rollsim.cli import main
+from rollsim.studies import study as st
+from rollsim.studies.report import effect_series
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+BASE = (ROOT / "examples" / "indentation_mndot.toml").as_posix()
+STUDY = """
+reference_loads = ["100 kN"]
+[set]
+"model.accuracy" = "fast"
+[[sweep]]
+"soil.layers[0].c_dp" = ["150 kPa", "250 kPa"]
+"soil.layers[0].phi_dp" = ["0 deg", "10 deg"]
+"""
+
+
+def _write(directory: pathlib.Path, body: str, name: str = "study.toml") -> pathlib.Path:
+    path = directory / name
+    if MPI.COMM_WORLD.rank == 0:
+        path.write_text(f'base = "{BASE}"\n' + body)
+    MPI.COMM_WORLD.barrier()
+    return path
+
+
+def _results(out: pathlib.Path) -> list[dict]:
+    with (out / "results.csv").open(newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def test_results_csv_holds_si_numbers_with_units_in_the_header(tmp_mpi_path):
+    out = tmp_mpi_path / "out"
+    assert main(["study", str(_write(tmp_mpi_path, STUDY)), "--out", str(out), "--quiet", "--no-report"]) == 0
+    if MPI.COMM_WORLD.rank == 0:
+        rows = _results(out)
+        assert {"soil.layers[0].c_dp_Pa", "soil.layers[0].phi_dp_deg"} <= set(rows[0])
+        assert sorted(float(r["soil.layers[0].c_dp_Pa"]) for r in rows) == [150e3, 150e3, 250e3, 250e3]
+        assert sorted(float(r["soil.layers[0].phi_dp_deg"]) for r in rows) == pytest.approx([0, 0, 10, 10])
+
+
+def test_effect_lines_join_only_cases_that_differ_in_the_plotted_parameter():
+    params = {"a": {"E_Pa": 2e7, "mu": 0.4}, "b": {"E_Pa": 4e7, "mu": 0.4},
+              "c": {"E_Pa": 2e7, "mu": 0.8}, "d": {"E_Pa": 4e7, "mu": 0.8}, "e": {"E_Pa": 3e7, "mu": 0.6}}
+    series = effect_series(params, list(params), "E_Pa")
+    assert sorted(series) == [["a", "b"], ["c", "d"]]       # "e" shares mu with no other case
+
+
+def _analytic(tmp_path, body):
+    return st.load_study(_write(tmp_path, body))
+
+
+def test_parameters_without_effect_on_the_runner_are_flagged(tmp_mpi_path):
+    body = STUDY + '[[sweep]]\n"wheel.friction" = [0.4, 0.8]\n"soil.layers[0].nu" = [0.3, 0.3]\nmode = "zip"\n'
+    assert st.ineffective_keys(_analytic(tmp_mpi_path, body)) == ["wheel.friction"]
+    assert st.ineffective_keys(_analytic(tmp_mpi_path, STUDY)) == []
+
+
+def test_resume_reruns_changed_and_corrupt_cases(tmp_mpi_path, caplog):
+    comm = MPI.COMM_WORLD
+    out = tmp_mpi_path / "out"
+    path = _write(tmp_mpi_path, STUDY)
+    runner = st.analytic_runner((100e3,))
+    first = st.run_study(st.load_study(path), out, comm, runner, quiet=True)
+    before = {r["case"]: r["sinkage_100kN_m"] for r in first}
+    # the same study again: nothing to run
+    study = st.load_study(path)
+    states = st._plan(study, out, comm)
+    assert set(states.values()) == {"done"}
+    # an edited [set] (weaker soil for every case): every case is stale and rerun
+    edited = _write(tmp_mpi_path, STUDY.replace('"model.accuracy" = "fast"',
+                                                '"model.accuracy" = "fast"\n"soil.gamma" = "18 kN/m^3"'))
+    study = st.load_study(edited)
+    assert set(st._plan(study, out, comm).values()) == {"changed"}
+    rows = st.run_study(study, out, comm, runner, quiet=True)
+    assert all(r["sinkage_100kN_m"] != before[r["case"]] for r in rows)
+    # a corrupt summary is rerun, not trusted
+    victim = study.cases[0].name
+    if comm.rank == 0:
+        (out / "cases" / victim / "summary.json").write_text('{"status": "ok", "compar')
+    comm.barrier()
+    states = st._plan(study, out, comm)
+    assert states[victim] == "corrupt" and sum(v == "done" for v in states.values()) == len(states) - 1
+    rows = st.run_study(study, out, comm, runner, quiet=True)
+    assert all(r["status"] == "ok" for r in rows)
+    if comm.rank == 0:
+        assert json.loads((out / "study.json").read_text())["rerun"] == {"changed": [], "corrupt": [victim]}
+
+
+def test_edited_csv_row_is_rerun(tmp_mpi_path):
+    """Case names come from the CSV's case column, so an edited value keeps the name: the
+    fingerprint sees the change and reruns that case only."""
+    comm = MPI.COMM_WORLD
+    out, table = tmp_mpi_path / "out", tmp_mpi_path / "cases.csv"
+    body = '[[sweep]]\ncsv = "cases.csv"\n"soil.layers[0].c_dp" = "{c_dp_kPa} kPa"\n'
+    path = _write(tmp_mpi_path, 'reference_loads = ["100 kN"]\n' + body)
+    if comm.rank == 0:
+        table.write_text("case,c_dp_kPa\n1,150\n2,250\n")
+    comm.barrier()
+    runner = st.analytic_runner((100e3,))
+    st.run_study(st.load_study(path), out, comm, runner, quiet=True)
+    if comm.rank == 0:
+        table.write_text("case,c_dp_kPa\n1,150\n2,90\n")
+    comm.barrier()
+    study = st.load_study(path)
+    states = st._plan(study, out, comm)
+    assert sorted(states.values()) == ["changed", "done"], states
+    rows = {r["case"]: r for r in st.run_study(study, out, comm, runner, quiet=True)}
+    changed = next(n for n, v in states.items() if v == "changed")
+    assert float(rows[changed]["soil.layers[0].c_dp_Pa"]) == 90e3
