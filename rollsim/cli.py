@@ -12,6 +12,7 @@ import math
 import sys
 
 from rollsim import __version__
+from rollsim.files import output_directory
 from rollsim.units import ANGLE, FLEXIBILITY, FORCE, LENGTH, PRESSURE, UNIT_WEIGHT, InputError, to_si
 
 EXIT_OK, EXIT_FAILURE, EXIT_INPUT, EXIT_NO_ANSWER = 0, 1, 2, 3
@@ -28,10 +29,11 @@ class NoAnswer(Exception):
 
 
 class _Parser(argparse.ArgumentParser):
-    """argparse with one-line errors and exit status 2."""
+    """argparse with one-line errors and exit status 2 (the field: the command, or "command")."""
 
     def error(self, message):
-        raise InputError(self.prog.split()[-1], message)
+        words = self.prog.split()
+        raise InputError(words[-1] if len(words) > 1 else "command", message.removeprefix("argument command: "))
 
 
 def _quantity(kind):
@@ -84,6 +86,7 @@ def build_parser() -> argparse.ArgumentParser:
     common = _Parser(add_help=False)
     common.add_argument("--json", action="store_true", help="print one JSON object as the last line of stdout")
     common.add_argument("--quiet", action="store_true", help="no progress or notes on stderr")
+    common.add_argument("--debug", action="store_true", help="show the traceback of an unexpected error")
     common.add_argument("--verbose", action="store_true",
                         help="also log every load step's Newton residuals and other libraries' messages "
                              "(e.g. the form compiler's build steps)")
@@ -124,8 +127,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="equivalent footing depth (default %(default)s)")
     _add_wheel(p)
     _add_soil(p)
-    p.add_argument("--c2", type=_quantity(PRESSURE), default=("0", PRESSURE), help="lower layer cohesion, Pa")
-    p.add_argument("--phi2", type=_quantity(ANGLE), default=("0", ANGLE), help="lower layer friction angle, deg")
+    p.add_argument("--c2", type=_quantity(PRESSURE), help="lower layer cohesion, Pa (give --c2 and/or --phi2)")
+    p.add_argument("--phi2", type=_quantity(ANGLE), help="lower layer friction angle, deg (default 0 with --c2)")
     g = p.add_mutually_exclusive_group(required=True)
     g.add_argument("--load", type=_quantity(FORCE), help="vertical wheel force Q_V, N")
     g.add_argument("--sinkage", type=_quantity(LENGTH), help="sinkage on the top layer, m")
@@ -275,6 +278,12 @@ def cmd_invert(args) -> dict:
     second = [n for n in ("load2", "sinkage2", "d2", "b2") if getattr(args, n) is not None]
     if args.record:
         return _invert_record(args, wheel, gamma, load, c, phi, opts)
+    for flag in ("out", "min_strength"):
+        if getattr(args, flag) is not None:
+            raise InputError("--" + flag.replace("_", "-"), "applies with --record only")
+    if second and (args.load2 is None or args.sinkage2 is None):
+        raise InputError("--load2" if args.load2 is None else "--sinkage2", "a second measurement needs both "
+                         "--load2 and --sinkage2")
     if args.sinkage is None:
         raise InputError("--sinkage", "give the measured sinkage (or --record)")
     s = _si(args, "sinkage")
@@ -328,11 +337,10 @@ def cmd_invert(args) -> dict:
 
 def _invert_record(args, wheel, gamma, load, c, phi, opts) -> dict:
     import csv
-    import pathlib
 
     import numpy as np
 
-    from rollsim.files import atomic_path
+    from rollsim.files import atomic_path, output_file, read_text
     from rollsim.studies.bearing_capacity import strength_profile
     if (c is None) == (phi is None):
         raise InputError("--c", "with --record hold exactly one of --c or --phi fixed")
@@ -340,11 +348,8 @@ def _invert_record(args, wheel, gamma, load, c, phi, opts) -> dict:
         raise InputError("--min-strength", "a record needs the minimum acceptable strength")
     minimum = (math.radians(to_si(args.min_strength, ANGLE, "--min-strength")) if c is not None
                else to_si(args.min_strength, PRESSURE, "--min-strength"))
-    path = pathlib.Path(args.record)
-    if not path.is_file():
-        raise InputError("--record", f"no such file: {path}")
-    with path.open(newline="") as f:
-        rows = list(csv.DictReader(f))
+    out_path = output_file(args.out, "--out") if args.out is not None else None
+    rows = list(csv.DictReader(read_text(args.record, "--record").splitlines()))
     if not rows or not {"position_m", "sinkage_m"} <= set(rows[0]):
         raise InputError("--record", "the CSV needs columns position_m and sinkage_m")
     try:
@@ -357,8 +362,7 @@ def _invert_record(args, wheel, gamma, load, c, phi, opts) -> dict:
     prof = strength_profile(position, s, load, wheel, gamma, c=c, phi=phi, minimum=minimum, opts=opts)
     scale, unit = (1.0, "Pa") if prof.quantity == "c" else (180.0 / math.pi, "deg")
     column = f"{prof.quantity}_{unit}"
-    if args.out:
-        out_path = pathlib.Path(args.out)
+    if out_path is not None:
         out_path.parent.mkdir(parents=True, exist_ok=True)
         with atomic_path(out_path) as tmp, tmp.open("w", newline="") as f:
             w = csv.writer(f)
@@ -382,7 +386,10 @@ def cmd_influence(args) -> dict:
     top = _soil(args)
     if top.c == 0 and top.phi == 0:
         raise InputError("--c", "the top layer needs --c or --phi")
-    c2, phi2 = _si(args, "c2"), _angle(args, "phi2")
+    if args.c2 is None and args.phi2 is None:
+        raise InputError("--c2", "give the lower layer's strength (--c2 and/or --phi2)")
+    c2 = 0.0 if args.c2 is None else _si(args, "c2")
+    phi2 = 0.0 if args.phi2 is None else _angle(args, "phi2")
     if c2 < 0:
         raise InputError("--c2", "must be zero or positive")
     if not 0 <= phi2 < math.radians(90):
@@ -432,6 +439,7 @@ def cmd_run(args) -> dict:
     comm = MPI.COMM_WORLD
     setup_logging(comm, quiet=args.quiet, verbose=args.verbose)
     scene = load_scene(args.scene)
+    output_directory(args.out)
     options = _petsc_options(args.petsc_option)
     if scene.wheel.type != "rigid":
         raise InputError("wheel.type", "the finite-element solver has rigid wheels so far")
@@ -474,6 +482,8 @@ def cmd_study(args) -> dict:
     comm = MPI.COMM_WORLD
     setup_logging(comm, quiet=args.quiet, verbose=args.verbose)
     study = st.load_study(args.study)  # every case is validated before anything is written
+    if not args.dry_run:
+        output_directory(args.out)
     if args.dry_run:
         if comm.rank == 0 and not args.json:
             print("\n".join(st.dry_run_lines(study)))
@@ -496,8 +506,17 @@ def cmd_report(args) -> dict:
     import pathlib
 
     from rollsim.studies.report import run_report, write_report
-    is_run = (pathlib.Path(args.directory) / "history.csv").is_file()
-    path = run_report(args.directory) if is_run else write_report(args.directory)
+    directory = pathlib.Path(args.directory)
+    if not directory.is_dir():
+        raise InputError("directory", f"no such directory: {directory}")
+    is_run = (directory / "history.csv").is_file()
+    try:
+        path = run_report(directory) if is_run else write_report(directory)
+    except InputError:
+        raise
+    except (ValueError, KeyError, TypeError, IndexError, AttributeError) as e:
+        raise InputError(str(directory), f"its files cannot be read ({type(e).__name__}: {e}); "
+                         "run the study or the scene again") from None
     if not args.json:
         print(f"report: {path}")
     return {"report": str(path)}
@@ -507,33 +526,52 @@ def cmd_design(args) -> dict:
     from rollsim.log import setup_logging
     from rollsim.studies.design import run_design_study
     setup_logging(quiet=args.quiet, verbose=args.verbose)
-    return run_design_study(args.out, quiet=args.quiet)
+    return run_design_study(output_directory(args.out), quiet=args.quiet)
 
 
 COMMANDS = {"predict": cmd_predict, "invert": cmd_invert, "influence": cmd_influence, "check": cmd_check,
             "run": cmd_run, "study": cmd_study, "report": cmd_report, "design": cmd_design}
 
 
+#: names of the model's API fields -> the flags that set them (errors name the flag)
+_FLAG_OF_FIELD = {name: f"--{name}" for name in ("c", "phi", "gamma", "d", "b", "flex", "load", "sinkage")}
+
+
 def main(argv: list[str] | None = None) -> int:
+    """Run one command; returns the exit status.  Every failure is one line on stderr (rank 0
+    under mpirun) and, with ``--json``, one JSON object; a traceback only with ``--debug``."""
     argv = sys.argv[1:] if argv is None else list(argv)
-    as_json = "--json" in argv
-    code, payload = EXIT_OK, None
+    as_json, debug = "--json" in argv, "--debug" in argv
+    parallel = bool(argv) and argv[0] in PARALLEL_COMMANDS  # one JSON object per run, from rank 0
+    speaks = not parallel or _rank() == 0
+    code, payload, message = EXIT_OK, None, None
     try:
         args = build_parser().parse_args(argv)
         payload = COMMANDS[args.command](args)
-    except InputError as e:
-        code, payload = EXIT_INPUT, {"error": "invalid_input", "field": e.field, "message": e.message}
-        print(f"rollsim: error: {e.field}: {e.message}", file=sys.stderr)
-    except NoAnswer as e:
-        code, payload = EXIT_NO_ANSWER, e.payload
-        print(f"rollsim: {e}", file=sys.stderr)
-    except RunFailed as e:
-        code, payload = EXIT_FAILURE, e.payload
-        print(f"rollsim: the run failed: {e}", file=sys.stderr)
     except SystemExit as e:  # --help, --version
         return e.code if isinstance(e.code, int) else EXIT_OK
-    parallel = bool(argv) and argv[0] in PARALLEL_COMMANDS  # one JSON object per run, from rank 0
-    if as_json and payload is not None and (not parallel or _rank() == 0):
+    except InputError as e:
+        field = _FLAG_OF_FIELD.get(e.field, e.field)
+        code, payload = EXIT_INPUT, {"error": "invalid_input", "field": field, "message": e.message}
+        message = f"rollsim: error: {field}: {e.message}"
+    except NoAnswer as e:
+        code, payload, message = EXIT_NO_ANSWER, e.payload, f"rollsim: {e}"
+    except RunFailed as e:
+        code, payload, message = EXIT_FAILURE, e.payload, f"rollsim: the run failed: {e}"
+    except OSError as e:  # the file system refused: a path the user gave, or the machine
+        code = EXIT_INPUT if isinstance(e, (FileNotFoundError, PermissionError, IsADirectoryError,
+                                            NotADirectoryError, FileExistsError)) else EXIT_FAILURE
+        where = e.filename or ""
+        payload = {"error": "file_system", "path": str(where), "message": e.strerror or str(e)}
+        message = f"rollsim: error: {where}: {e.strerror or e}"
+    except Exception as e:  # noqa: BLE001 - one line, the traceback with --debug
+        if debug:
+            raise
+        code, payload = EXIT_FAILURE, {"error": "internal", "message": f"{type(e).__name__}: {e}"}
+        message = f"rollsim: internal error: {type(e).__name__}: {e} (rerun with --debug for the traceback)"
+    if message and speaks:
+        print(message, file=sys.stderr)
+    if as_json and payload is not None and speaks:
         print(json.dumps(payload))
     return code
 

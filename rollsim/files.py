@@ -1,4 +1,5 @@
-"""Atomic file writes: a reader sees the old file or the new one, never half of one.
+"""The user's files: atomic writes (a reader sees the old file or the new one, never half of
+one), reading text and TOML with one-line errors, and checking output paths before any work.
 
 Every output file of rollsim (run directories, studies, design tables, checkpoints) is written
 through :func:`atomic_path`: the data go to a hidden temporary file beside the target, which is
@@ -12,7 +13,8 @@ import os
 import pathlib
 from typing import Iterator
 
-__all__ = ["atomic_path", "atomic_write_text", "atomic_write_bytes"]
+__all__ = ["atomic_path", "atomic_write_text", "atomic_write_bytes", "read_text", "read_toml", "output_directory",
+           "output_file"]
 
 
 @contextlib.contextmanager
@@ -42,3 +44,61 @@ def atomic_write_text(path, text: str) -> None:
     """Write ``text`` to ``path`` atomically."""
     with atomic_path(path) as tmp:
         tmp.write_text(text)
+
+
+def read_text(path, field: str) -> str:
+    """The text of the user's file ``path``; ``InputError`` naming ``field`` when it cannot be
+    read or is not UTF-8 text."""
+    from rollsim.units import InputError
+    path = pathlib.Path(path)
+    try:
+        return path.read_bytes().decode("utf-8")
+    except IsADirectoryError:
+        raise InputError(field, f"{path} is a directory, not a file") from None
+    except OSError as e:
+        raise InputError(field, f"cannot read {path} ({e.strerror})") from None
+    except UnicodeDecodeError as e:
+        raise InputError(field, f"{path} is not UTF-8 text (byte {e.start})") from None
+
+
+def read_toml(path, field: str) -> dict:
+    """The TOML document in ``path`` (see :func:`read_text`); ``InputError`` naming ``field`` when it
+    is not valid TOML or nested too deeply to read."""
+    import tomllib
+
+    from rollsim.units import InputError
+    text = read_text(path, field)
+    try:
+        return tomllib.loads(text)
+    except tomllib.TOMLDecodeError as e:
+        raise InputError(field, f"not valid TOML: {e}") from None
+    except RecursionError:
+        raise InputError(field, "nested too deeply to read") from None
+
+
+def output_directory(path, field: str = "--out") -> pathlib.Path:
+    """``path`` as an output directory: refused (``InputError`` naming ``field``) when empty, when it
+    names an existing file, or when it cannot be created or written; nothing is created here."""
+    from rollsim.units import InputError
+    if path is None or not str(path).strip():
+        raise InputError(field, "give a directory")
+    path = pathlib.Path(path)
+    if path.exists() and not path.is_dir():
+        raise InputError(field, f"{path} exists and is not a directory")
+    existing = next((p for p in (path, *path.parents) if p.exists()), pathlib.Path("."))
+    if not existing.is_dir() or not os.access(existing, os.W_OK | os.X_OK):
+        raise InputError(field, f"cannot write to {existing}")
+    return path
+
+
+def output_file(path, field: str) -> pathlib.Path:
+    """``path`` as an output file: refused when empty, when it names a directory, or when its
+    folder cannot be written; nothing is created here."""
+    from rollsim.units import InputError
+    if path is None or not str(path).strip():
+        raise InputError(field, "give a file name")
+    path = pathlib.Path(path)
+    if path.is_dir():
+        raise InputError(field, f"{path} is a directory, not a file")
+    output_directory(path.parent if str(path.parent) else ".", field)
+    return path

@@ -8,10 +8,9 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import pathlib
-import tomllib
 from dataclasses import dataclass
 
+from rollsim.files import read_toml
 from rollsim.solver.options import (ACCURACIES, DEFAULT_ACCURACY, DEFAULT_KINEMATICS, DEFAULT_LINEAR_SOLVER,
                                     DEFAULT_MATCH, DEFAULT_REGULARISING_COHESION, DEFAULT_RELAXATION_LENGTH,
                                     DEFAULT_VOLUMETRIC_STRAIN, KINEMATICS, LINEAR_SOLVERS, MATCHES, PROTOCOLS,
@@ -283,13 +282,4 @@ def parse_scene(data: dict) -> Scene:
 
 def load_scene(path) -> Scene:
     """Read and validate a scene file."""
-    path = pathlib.Path(path)
-    try:
-        text = path.read_text()
-    except OSError as e:
-        raise InputError(str(path), f"cannot read the scene file ({e.strerror})") from None
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as e:
-        raise InputError(str(path), f"not valid TOML: {e}") from None
-    return parse_scene(data)
+    return parse_scene(read_toml(path, str(path)))

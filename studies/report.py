@@ -15,6 +15,7 @@ import re
 
 import numpy as np
 
+from rollsim.files import read_text
 from rollsim.units import InputError
 
 MAX_CURVES = 16  # force-sinkage curves per figure
@@ -29,8 +30,21 @@ def _plt():
 
 
 def _read_csv(path: pathlib.Path) -> list[dict]:
-    with path.open(newline="") as f:
-        return list(csv.DictReader(f))
+    return list(csv.DictReader(read_text(path, path.name).splitlines()))
+
+
+def _check_numbers(rows: list[dict], path: pathlib.Path) -> None:
+    """Every result column the report plots holds a number (or nothing): checked before any
+    file is written, so a corrupt results.csv writes nothing."""
+    for i, r in enumerate(rows, start=2):
+        if None in r or "case" not in r:
+            raise InputError(path.name, f"line {i}: not a results table row")
+        for k, v in r.items():
+            if v and k.startswith(("sinkage_", "model_sinkage_", "ratio", "k1", "k2", "k3", "k4", "R2")):
+                try:
+                    float(v)
+                except ValueError:
+                    raise InputError(path.name, f"line {i}, {k}: not a number: {v!r}") from None
 
 
 def _number(text):
@@ -189,14 +203,15 @@ def write_report(directory) -> pathlib.Path:
     out = pathlib.Path(directory)
     if not (out / "study.json").is_file() or not (out / "results.csv").is_file():
         raise InputError(str(out), "not a study directory (no study.json / results.csv): run rollsim study first")
-    study = json.loads((out / "study.json").read_text())
+    study = json.loads(read_text(out / "study.json", "study.json"))
     rows = _read_csv(out / "results.csv")
+    _check_numbers(rows, out / "results.csv")
     cases = []
     for r in rows:
         case_dir = out / "cases" / r["case"]
         if r.get("status") != "ok" or not (case_dir / "summary.json").is_file():
             continue
-        summary = json.loads((case_dir / "summary.json").read_text())
+        summary = json.loads(read_text(case_dir / "summary.json", f"{r['case']}/summary.json"))
         scene = summary.get("scene", {})
         history = case_dir / summary.get("history", "history.csv")
         if not history.is_file():
@@ -246,7 +261,7 @@ def run_report(directory) -> pathlib.Path:
     from rollsim.studies import bearing_capacity as bc
     from rollsim.studies.study import atomic_write_text, model_inputs
     out = pathlib.Path(directory)
-    summary = json.loads((out / "summary.json").read_text())
+    summary = json.loads(read_text(out / "summary.json", "summary.json"))
     rows = _read_csv(out / "history.csv")
     scene = parse_scene(_scene_input(summary["scene"]))
     wheel, soil, opts = model_inputs(scene)

@@ -43,7 +43,6 @@ import pathlib
 import re
 import shutil
 import time
-import tomllib
 from dataclasses import dataclass, field
 from typing import Callable
 
@@ -51,7 +50,7 @@ import numpy as np
 from mpi4py import MPI
 
 from rollsim import __version__
-from rollsim.files import atomic_write_text
+from rollsim.files import atomic_write_text, read_text, read_toml
 from rollsim.log import get_logger
 from rollsim.scene import Scene, parse_scene
 from rollsim.units import FORCE, InputError, to_si
@@ -139,6 +138,22 @@ def parameters(case: "Case") -> dict:
     return out
 
 
+def fill_template(template: str, row: dict, field: str, source: str) -> str:
+    """``template`` with every ``{column}`` replaced by the row's value; only plain column names
+    are allowed (no attributes, indexing or format specs), and braces must pair."""
+    def value(m):
+        name = m.group(1)
+        if not re.fullmatch(r"\w+", name):
+            raise InputError(field, f"{{{name}}}: a template names a column only, e.g. '{{E_MPa}} MPa'")
+        if name not in row:
+            raise InputError(field, f"no column {name!r} in {source}")
+        return str(row[name])
+    text = re.sub(r"\{([^{}]*)\}", value, template)
+    if "{" in text or "}" in text:
+        raise InputError(field, f"unbalanced brace in {template!r}")
+    return text
+
+
 def _short(key: str, value) -> str:
     label = key.split(".")[-1]
     text = re.sub(r"[^A-Za-z0-9.+-]+", "", str(value))
@@ -153,10 +168,14 @@ def _expand_block(block: dict, where: str, study_dir: pathlib.Path) -> list[tupl
         rows_wanted = block.pop("rows", None)
         if not path.is_file():
             raise InputError(f"{where}.csv", f"no such file: {path}")
-        with path.open(newline="") as f:
-            rows = list(csv.DictReader(line for line in f if not line.startswith("#")))
+        text = read_text(path, f"{where}.csv")
+        rows = list(csv.DictReader(line for line in text.splitlines() if not line.startswith("#")))
+        if not rows:
+            raise InputError(f"{where}.csv", f"{path.name} has no rows")
         if rows_wanted is not None:
-            if not isinstance(rows_wanted, list) or "case" not in (rows[0] if rows else {}):
+            if isinstance(rows_wanted, list) and not rows_wanted:
+                raise InputError(f"{where}.rows", "is empty: list the cases to run, or omit rows for all")
+            if not isinstance(rows_wanted, list) or "case" not in rows[0]:
                 raise InputError(f"{where}.rows", "give a list of values of the CSV's 'case' column")
             by_case = {r["case"]: r for r in rows}
             missing = [str(c) for c in rows_wanted if str(c) not in by_case]
@@ -169,10 +188,7 @@ def _expand_block(block: dict, where: str, study_dir: pathlib.Path) -> list[tupl
             for key, template in block.items():
                 if not isinstance(template, str):
                     raise InputError(f"{where}.{key}", "a CSV sweep maps a key to a template string like '{E_MPa} MPa'")
-                try:
-                    overrides[key] = template.format(**row)
-                except KeyError as e:
-                    raise InputError(f"{where}.{key}", f"no column {e.args[0]!r} in {path.name}") from None
+                overrides[key] = fill_template(template, row, f"{where}.{key}", path.name)
             label = f"case-{int(row['case']):02d}" if str(row.get("case", "")).isdigit() else f"row-{i + 1:02d}"
             out.append((label, overrides))
         return out
@@ -198,23 +214,14 @@ def _expand_block(block: dict, where: str, study_dir: pathlib.Path) -> list[tupl
 def load_study(path) -> Study:
     """Read a study file and expand and validate every case (``InputError`` names the key)."""
     path = pathlib.Path(path)
-    try:
-        data = tomllib.loads(path.read_text())
-    except OSError as e:
-        raise InputError(str(path), f"cannot read the study file ({e.strerror})") from None
-    except tomllib.TOMLDecodeError as e:
-        raise InputError(str(path), f"not valid TOML: {e}") from None
+    data = read_toml(path, str(path))
     allowed = {"base", "runner", "reference_loads", "ranks_per_case", "set", "sweep"}
     for key in data:
         if key not in allowed:
             raise InputError(key, "unknown key")
     base = data.get("base")
     if isinstance(base, str):
-        base_path = path.parent / base
-        try:
-            base = tomllib.loads(base_path.read_text())
-        except (OSError, tomllib.TOMLDecodeError) as e:
-            raise InputError("base", f"cannot read the base scene {base_path}: {e}") from None
+        base = read_toml(path.parent / base, "base")
     if not isinstance(base, dict):
         raise InputError("base", "give a scene file path or an inline [base] table")
     fixed = data.get("set", {})
