@@ -1,4 +1,5 @@
-"""Logging that speaks once under MPI: rank 0 logs, other ranks only warnings and errors.
+"""Logging that speaks once under MPI: rank 0 logs, the other ranks only errors (a warning is
+the same on every rank, so it is printed once).
 
 Other libraries' messages go through the root logger: only their warnings and errors are shown,
 unless ``verbose``.  (The form compiler's build steps - ``running build_ext``, the compiler
@@ -19,7 +20,7 @@ class _RankFilter(logging.Filter):
         self.rank = rank
 
     def filter(self, record: logging.LogRecord) -> bool:
-        return self.rank == 0 or record.levelno >= logging.WARNING
+        return self.rank == 0 or record.levelno >= logging.ERROR
 
 
 def get_logger(name: str | None = None) -> logging.Logger:

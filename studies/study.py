@@ -52,6 +52,7 @@ from mpi4py import MPI
 from rollsim import __version__
 from rollsim.files import atomic_write_text, read_text, read_toml
 from rollsim.log import get_logger
+from rollsim.mpi import root_block
 from rollsim.scene import Scene, parse_scene
 from rollsim.units import FORCE, InputError, to_si
 
@@ -498,7 +499,10 @@ def fe_runner(reference_loads, petsc_options: dict | None = None) -> CaseRunner:
         from rollsim.solver.run import run_scene
         run_dir = case_dir / "run"
         summary = run_scene(case.scene, run_dir, comm, progress=False, petsc_options=petsc_options)
-        history = _read_history(run_dir / "history.csv") if comm.rank == 0 else None
+        history = None
+        with root_block(comm) as on_root:  # a failed read on rank 0 fails every rank, not a hang
+            if on_root:
+                history = _read_history(run_dir / "history.csv")
         history = comm.bcast(history, root=0)
         result = {"status": summary["status"], "runner": "fe", "scene": case.scene.to_dict(), "ranks": comm.size,
                   "history": "run/history.csv", "steps": summary["steps"], "dofs": summary["dofs"],

@@ -27,6 +27,7 @@ def _emit():
     logging.getLogger("ffcx").info("compiling form")
     logging.getLogger("dolfinx").warning("a library warning")
     get_logger("run").info("step 1 progress")
+    get_logger("run").warning("a rollsim warning")
 
 
 def test_compiler_log_hidden_by_default(capsys, restore_logging):
@@ -35,7 +36,9 @@ def test_compiler_log_hidden_by_default(capsys, restore_logging):
     err = capsys.readouterr().err
     assert "running build_ext" not in err and "compiling form" not in err
     if MPI.COMM_WORLD.rank == 0:
-        assert "step 1 progress" in err and "a library warning" in err
+        assert "step 1 progress" in err and "a library warning" in err and "a rollsim warning" in err
+    else:   # warnings are the same on every rank: printed once, by rank 0
+        assert "warning" not in err
 
 
 def test_compiler_log_shown_with_verbose(capsys, restore_logging):
