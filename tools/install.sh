@@ -13,7 +13,7 @@ venv=${ROLLSIM_VENV:-$here/.venv}
 apt_packages=(
   python3-dolfinx-real python3-petsc4py-real python3-mpi4py python3-gmsh
   openmpi-bin python3-numpy python3-scipy python3-matplotlib python3-pint
-  python3-pytest python3-pytest-xdist python3-pytest-timeout python3-sphinx python3-myst-parser python3-venv python3-pip python3-wheel
+  python3-pytest python3-pytest-xdist python3-pytest-timeout python3-hypothesis python3-sphinx python3-myst-parser python3-venv python3-pip python3-wheel
   libegl1 libegl-mesa0 libgl1-mesa-dri   # off-screen rendering (VTK via EGL, llvmpipe)
   libopenblas0-pthread                   # optimised BLAS for MUMPS (reference BLAS is ~2x slower)
 )
