@@ -34,7 +34,8 @@ def setup_logging(comm: MPI.Comm = MPI.COMM_WORLD, quiet: bool = False, verbose:
     other = logging.StreamHandler(sys.stderr)
     other.addFilter(_RankFilter(comm.rank))
     other.setLevel(logging.DEBUG if verbose else logging.WARNING)
-    logging.basicConfig(handlers=[other], format="%(name)s: %(message)s", force=True)
+    logging.basicConfig(handlers=[other], format="%(name)s: %(message)s", force=True,
+                        level=logging.INFO if verbose else logging.WARNING)
     logger = logging.getLogger(LOGGER_NAME)
     logger.handlers.clear()
     handler = logging.StreamHandler(sys.stderr)

@@ -24,7 +24,7 @@ def restore_logging():
 def _emit():
     logging.getLogger().setLevel(logging.INFO)          # what the compiler's build does to the root logger
     logging.info("running build_ext")
-    logging.getLogger("ffcx").info("compiling form")
+    logging.getLogger("a_library").info("compiling form")     # a library logger without a level of its own
     logging.getLogger("dolfinx").warning("a library warning")
     get_logger("run").info("step 1 progress")
     get_logger("run").warning("a rollsim warning")
