@@ -29,7 +29,7 @@ def test_docs_build_without_warnings(tmp_path):
 
 def _slug(title: str) -> str:
     """The anchor GitHub and MyST give a heading."""
-    text = re.sub(r"[`*_]", "", title.strip().lower())
+    text = re.sub(r"[`*]", "", title.strip().lower())
     text = re.sub(r"[^\w\- ]", "", text)
     return text.replace(" ", "-")
 
