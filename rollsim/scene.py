@@ -11,12 +11,15 @@ import math
 from dataclasses import dataclass
 
 from rollsim.files import read_toml
+from rollsim.log import get_logger
 from rollsim.solver.options import (ACCURACIES, DEFAULT_ACCURACY, DEFAULT_KINEMATICS, DEFAULT_LINEAR_SOLVER,
                                     DEFAULT_MATCH, DEFAULT_REGULARISING_COHESION, DEFAULT_RELAXATION_LENGTH,
                                     DEFAULT_VOLUMETRIC_STRAIN, KINEMATICS, LINEAR_SOLVERS, MATCHES, PROTOCOLS,
                                     VOLUMETRIC_STRAINS, default_volumetric_strain)
 from rollsim.units import (ANGLE, DIMENSIONLESS, FORCE, LENGTH, PRESSURE, UNIT_WEIGHT, InputError, Kind,
                            to_si)
+
+log = get_logger("scene")
 
 WHEEL_TYPES = ("rigid", "pneumatic")
 WHEEL_SHAPES = ("cylinder", "torus")
@@ -105,6 +108,31 @@ class Scene:
 
 ANGLE_KEYS = {"phi_dp", "phi", "dilation"}
 
+#: plausibility of a scene quantity, by key, SI: ``(hard low, hard high, typical low, typical high)``.
+#: Outside the hard range a value is refused (it is a typo or a unit slip: E = "40 GPa" for
+#: "40 MPa"); outside the typical range it is accepted with a warning.  docs/scene.md lists them.
+PLAUSIBLE = {
+    "diameter": (0.01, 20.0, 0.1, 3.0), "width": (1e-3, 10.0, 0.02, 1.5), "fillet": (0.0, 5.0, 0.0, 0.5),
+    "friction": (0.0, 2.0, 0.0, 1.0), "hub_diameter": (1e-3, 20.0, 0.05, 2.0),
+    "inflation": (1e3, 10e6, 50e3, 1.5e6), "E_carcass": (1e3, 1e12, 1e6, 1e10), "t_tread": (1e-4, 5.0, 1e-3, 0.2),
+    "gamma": (100.0, 100e3, 12e3, 25e3), "E": (1e3, 1e12, 1e6, 2e9), "thickness": (1e-3, 1000.0, 0.01, 20.0),
+    "c": (0.0, 1e9, 0.0, 2e6), "c_dp": (0.0, 2e9, 0.0, 4e6), "max_sinkage": (1e-6, 5.0, 1e-3, 0.5),
+    "load": (1.0, 1e8, 100.0, 2e6), "travel": (1e-3, 1000.0, 0.01, 50.0),
+    "relaxation_length": (0.0, 10.0, 0.0, 0.01), "regularising_cohesion": (0.0, 1e6, 0.0, 10e3),
+}
+
+
+def _check_plausible(key: str, name: str, value: float, kind: Kind) -> None:
+    """Refuse ``value`` outside the hard range of :data:`PLAUSIBLE`, warn outside the typical one."""
+    lo, hi, typical_lo, typical_hi = PLAUSIBLE[name]
+    unit = kind.si_unit.replace("**", "^")
+    if not lo <= value <= hi:
+        raise InputError(key, f"{value:g} {unit} is outside the plausible range {lo:g} to {hi:g} {unit} "
+                         "(a unit slip?)")
+    if not typical_lo <= value <= typical_hi:
+        log.warning("%s = %g %s is outside the typical range %g to %g %s", key, value, unit, typical_lo,
+                    typical_hi, unit)
+
 
 class _Table:
     """A TOML table being read: typed getters that name the dotted key, and leftovers are errors."""
@@ -136,6 +164,8 @@ class _Table:
             raise InputError(self.key(name), "must be positive")
         if minimum is not None and value < minimum:
             raise InputError(self.key(name), f"must be at least {minimum}")
+        if name in PLAUSIBLE:
+            _check_plausible(self.key(name), name, value, kind)
         return value
 
     def choice(self, name, allowed, default=None):

@@ -84,7 +84,7 @@ def _documented_keys() -> set[str]:
     """``table.key`` of every row of docs/scene.md's key tables (``soil.layers[]`` for layers)."""
     keys = set()
     for line in (DOCS / "scene.md").read_text().splitlines():
-        if m := re.match(r"^\| `([a-z_.\[\]A-Z]+)` \|", line):
+        if m := re.match(r"^\| `([a-z]+\.[a-z_.\[\]A-Z]+)` \|", line):
             keys.add(m.group(1))
     return keys
 

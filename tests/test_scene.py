@@ -135,3 +135,26 @@ def _to_toml(data: dict) -> str:
                     lines.append(f"[[{section}.{k}]]")
                     lines.extend(f"{ik} = {scalar(iv)}" for ik, iv in item.items())
     return "\n".join(lines) + "\n"
+
+
+@pytest.mark.parametrize("path, value", [("soil.layers[0].E", "1e40 Pa"), ("wheel.diameter", "1e30 m"),
+                                         ("wheel.friction", 50), ("soil.gamma", "2000 kN/m^3"),
+                                         ("loading.max_sinkage", "1e-9 m")])
+def test_implausible_values_are_refused_naming_the_key(path, value):
+    with pytest.raises(InputError, match="outside the plausible range") as err:
+        parse_scene(with_change(path, value))
+    assert err.value.field == path
+
+
+def test_atypical_value_is_accepted_with_a_warning(caplog):
+    with caplog.at_level("WARNING", logger="rollsim.scene"):
+        scene = parse_scene(with_change("soil.layers[0].E", "500 kPa"))
+    assert scene.soil.layers[0].E == 500e3
+    assert "soil.layers[0].E = 500000 Pa is outside the typical range" in caplog.text
+
+
+def test_plausibility_table_in_the_docs_matches():
+    from rollsim.scene import PLAUSIBLE
+    page = (pathlib.Path(__file__).resolve().parents[1] / "docs" / "scene.md").read_text()
+    for key, (lo, hi, tlo, thi) in PLAUSIBLE.items():
+        assert f"| `{key}` | {lo:g} to {hi:g} | {tlo:g} to {thi:g} |" in page, key
