@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 from dataclasses import dataclass
 
 from rollsim.files import read_toml
@@ -108,6 +109,15 @@ class Scene:
 
 ANGLE_KEYS = {"phi_dp", "phi", "dilation"}
 
+#: every key of each table (the validator reads those that apply to a case; tests/test_docs.py
+#: checks this list against the validator and the docs)
+TABLE_KEYS = {
+    "wheel": ("type", "shape", "diameter", "width", "fillet", "friction", "hub_diameter", "inflation",
+              "E_carcass", "nu_carcass", "t_tread"),
+    "soil.layers[]": ("model", "E", "nu", "thickness", "phi_dp", "c_dp", "c", "phi", "match", "dilation"),
+    "loading": ("protocol", "max_sinkage", "load", "travel"),
+}
+
 #: plausibility of a scene quantity, by key, SI: ``(hard low, hard high, typical low, typical high)``.
 #: Outside the hard range a value is refused (it is a typo or a unit slip: E = "40 GPa" for
 #: "40 MPa"); outside the typical range it is accepted with a warning.  docs/scene.md lists them.
@@ -176,10 +186,16 @@ class _Table:
             raise InputError(self.key(name), f"must be one of {', '.join(allowed)}, got {value!r}")
         return value
 
-    def done(self):
+    def done(self, context: str = ""):
+        """Refuse the keys left unread: a key of this table that the case does not use is named
+        as not applying (``context`` says to what), any other as unknown."""
         extra = sorted(set(self.data) - self.used)
         if extra:
-            raise InputError(self.key(extra[0]), "unknown key")
+            name = extra[0]
+            known = TABLE_KEYS.get(re.sub(r"\[\d+\]$", "[]", self.path), ())
+            if name in known and context:
+                raise InputError(self.key(name), f"does not apply to {context}")
+            raise InputError(self.key(name), "unknown key")
 
 
 def _wheel(t: _Table) -> WheelSpec:
@@ -204,7 +220,7 @@ def _wheel(t: _Table) -> WheelSpec:
             raise InputError(t.key("hub_diameter"), "must be smaller than the tire's inner diameter")
         if not -1 < tire["nu_carcass"] < 0.5:
             raise InputError(t.key("nu_carcass"), "must be in (-1, 0.5)")
-    t.done()
+    t.done(f"a {kind} wheel")
     return WheelSpec(kind, shape, d, b, fillet, friction, **tire)
 
 
@@ -249,7 +265,7 @@ def _layer(t: _Table, last: bool) -> LayerSpec:
     dilation = t.quantity("dilation", ANGLE, default=0.0, minimum=0.0)
     if dilation > friction_angle:
         raise InputError(t.key("dilation"), "must not exceed the friction angle")
-    t.done()
+    t.done(f"a {model} layer given by {'phi_dp/c_dp' if dp_given else 'c/phi'}")
     return LayerSpec(model=model, E=E, nu=nu, thickness=thickness, dilation=dilation, **strength)
 
 
@@ -275,7 +291,7 @@ def _loading(t: _Table, wheel: WheelSpec) -> LoadingSpec:
         spec["load"] = t.quantity("load", FORCE, required=True, positive=True)
     if protocol.startswith("rolling"):
         spec["travel"] = t.quantity("travel", LENGTH, required=True, positive=True)
-    t.done()
+    t.done(f"protocol {protocol}")
     return LoadingSpec(**spec)
 
 

@@ -132,3 +132,11 @@ def test_documented_defaults_of_the_model_table():
                        ("regularising_cohesion", f"{m.regularising_cohesion / 1e3:g} kPa")):
         row = next(line for line in page.splitlines() if line.startswith(f"| `model.{key}` |"))
         assert shown in row, (key, row)
+
+
+def test_table_key_lists_match_the_validator():
+    """rollsim.scene.TABLE_KEYS (used to say a key "does not apply") lists what the validator reads."""
+    from rollsim.scene import TABLE_KEYS
+    read = _validator_keys()
+    for table, keys in TABLE_KEYS.items():
+        assert {f"{table}.{k}" for k in keys} == {k for k in read if k.rpartition(".")[0] == table}, table

@@ -158,3 +158,16 @@ def test_plausibility_table_in_the_docs_matches():
     page = (pathlib.Path(__file__).resolve().parents[1] / "docs" / "scene.md").read_text()
     for key, (lo, hi, tlo, thi) in PLAUSIBLE.items():
         assert f"| `{key}` | {lo:g} to {hi:g} | {tlo:g} to {thi:g} |" in page, key
+
+
+@pytest.mark.parametrize("path, value, context", [
+    ("loading.load", "100 kN", "protocol indentation"),
+    ("wheel.inflation", "650 kPa", "a rigid wheel"),
+    ("soil.layers[0].match", "compression", "a drucker-prager layer given by phi_dp/c_dp"),
+])
+def test_known_key_that_does_not_apply_is_named_as_such(path, value, context):
+    with pytest.raises(InputError, match=f"does not apply to {context}") as err:
+        parse_scene(with_change(path, value))
+    assert err.value.field == path
+    with pytest.raises(InputError, match="unknown key"):
+        parse_scene(with_change(path.rsplit(".", 1)[0] + ".colour", "red"))
