@@ -12,6 +12,13 @@ from mpi4py import MPI
 import rollsim.compat  # noqa: F401  (longer JIT lock wait: the serial suite runs in parallel workers)
 
 
+def assert_all(comm: MPI.Comm, condition, message: str = "") -> None:
+    """Assert ``condition`` on every rank together: if it fails on any rank, every rank fails here
+    (a rank-local assert would leave the others waiting in the test's next collective)."""
+    ok = comm.allreduce(bool(condition), op=MPI.LAND)
+    assert ok, message or f"failed on a rank (here: {bool(condition)})"
+
+
 @pytest.fixture(scope="session")
 def comm() -> MPI.Comm:
     return MPI.COMM_WORLD
