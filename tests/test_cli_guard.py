@@ -90,3 +90,22 @@ def test_corrupt_study_results_write_no_report(tmp_path, capsys):
     assert code == 2 and "not a number" in payload["message"]
     assert sorted(p.name for p in out.iterdir()) == before
     assert MPI.COMM_WORLD.size == 1
+
+
+def test_corrupt_study_json_is_one_line(tmp_path, capsys):
+    out = tmp_path / "study"
+    out.mkdir()
+    (out / "study.json").write_text('{"study": "s.toml", "cases": [')
+    (out / "results.csv").write_text("case,status\nbase,ok\n")
+    code, payload, err = _run(capsys, ["report", str(out)])
+    assert code == 2 and payload["field"] == str(out) and len(err) == 1
+    assert sorted(p.name for p in out.iterdir()) == ["results.csv", "study.json"]
+
+
+def test_record_output_into_a_directory_is_refused(tmp_path, capsys):
+    record = tmp_path / "record.csv"
+    record.write_text("position_m,sinkage_m\n0,0.02\n1,0.03\n")
+    code, payload, err = _run(capsys, ["invert", "--record", str(record), "--load", "133.5kN", "--phi", "0",
+                                       "--min-strength", "100 kPa", "--out", str(tmp_path)])
+    assert code == 2 and payload["field"] == "--out" and "is a directory" in payload["message"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["record.csv"]

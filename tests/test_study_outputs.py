@@ -117,3 +117,23 @@ def test_edited_csv_row_is_rerun(tmp_mpi_path):
     rows = {r["case"]: r for r in st.run_study(study, out, comm, runner, quiet=True)}
     changed = next(n for n, v in states.items() if v == "changed")
     assert float(rows[changed]["soil.layers[0].c_dp_Pa"]) == 90e3
+
+
+@pytest.mark.timeout(120)
+def test_fe_history_read_failing_on_rank0_fails_every_rank(tmp_mpi_path, monkeypatch):
+    """The FE runner reads a case's history on rank 0 and broadcasts it: a failed read there
+    fails the case on every rank with the same message (no rank waits in the broadcast)."""
+    comm = MPI.COMM_WORLD
+    import rollsim.solver.run as run
+
+    def fake_run_scene(scene, out_dir, comm, **kw):
+        return {"status": "ok", "steps": 1, "dofs": 1, "newton_iterations": 1}
+
+    def broken_read(path):
+        raise ValueError("planted read failure")
+
+    monkeypatch.setattr(run, "run_scene", fake_run_scene)
+    monkeypatch.setattr(st, "_read_history", broken_read)
+    case = st.load_study(_write(tmp_mpi_path, STUDY)).cases[0]
+    with pytest.raises(ValueError, match="planted read failure"):
+        st.fe_runner((100e3,))(case, tmp_mpi_path, comm)
