@@ -1,4 +1,4 @@
-"""Dynamic cone penetrometer (DCP) correlations used by the Mn/DOT report (spec section 5).
+"""Dynamic cone penetrometer (DCP) correlations used by the Mn/DOT report (docs/theory.md).
 
 PR is the penetration rate in mm/blow; the report uses its average over the top 0.5 m.
 """

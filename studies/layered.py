@@ -1,4 +1,4 @@
-"""Influence depth of a second soil layer under a rolling rigid wheel (spec section 4).
+"""Influence depth of a second soil layer under a rolling rigid wheel (docs/theory.md).
 
 The depth H at which a lower layer starts to change the sinkage, from setting the
 two-layer capacity (Meyerhof & Hanna 1978, via Das 1995) equal to the top-layer
@@ -52,7 +52,7 @@ def punching_coefficient(phi1, q_ratio):
 
 
 def adhesion_ratio(r):
-    """c_a / c1 for clay over clay with r = c2/c1 (cubic fit to Das 1995, per the spec)."""
+    """c_a / c1 for clay over clay with r = c2/c1 (cubic fit to Das 1995)."""
     return 0.321 * r**3 - 1.023 * r**2 + 1.08 * r + 0.621
 
 

@@ -58,9 +58,9 @@ def test_gamma_inclination_factor_vanishes_when_beta_exceeds_phi():
     assert bc.footing_capacity(beta=phi * 0.5, **kw) > 0.0
 
 
-# ------------------------------------------------------ the spec's cases, re-derived
+# ------------------------------------------- the model's cases, re-derived
 def _spec_force(s, d, b, c, phi, gamma, case, depth="modified"):
-    """A plain scalar transcription of the spec's general formula and case table."""
+    """A plain scalar transcription of the model's general formula and case table."""
     nq = math.tan(math.pi / 4 + phi / 2) ** 2 * math.exp(math.pi * math.tan(phi))
     nc = (nq - 1) / math.tan(phi) if phi > 0 else 2 + math.pi
     ng = 2 * (nq + 1) * math.tan(phi)
