@@ -132,25 +132,26 @@ PLAUSIBLE = {
 }
 
 
-def _check_plausible(key: str, name: str, value: float, kind: Kind) -> None:
-    """Refuse ``value`` outside the hard range of :data:`PLAUSIBLE`, warn outside the typical one."""
+def _check_plausible(key: str, name: str, value: float, kind: Kind, notes: list) -> None:
+    """Refuse ``value`` outside the hard range of :data:`PLAUSIBLE`; outside the typical one, add a
+    warning to ``notes`` (logged once the whole scene is valid)."""
     lo, hi, typical_lo, typical_hi = PLAUSIBLE[name]
     unit = kind.si_unit.replace("**", "^")
     if not lo <= value <= hi:
         raise InputError(key, f"{value:g} {unit} is outside the plausible range {lo:g} to {hi:g} {unit} "
                          "(a unit slip?)")
     if not typical_lo <= value <= typical_hi:
-        log.warning("%s = %g %s is outside the typical range %g to %g %s", key, value, unit, typical_lo,
-                    typical_hi, unit)
+        notes.append(f"{key} = {value:g} {unit} is outside the typical range {typical_lo:g} to {typical_hi:g} {unit}")
 
 
 class _Table:
     """A TOML table being read: typed getters that name the dotted key, and leftovers are errors."""
 
-    def __init__(self, data, path: str):
+    def __init__(self, data, path: str, notes: list | None = None):
         if not isinstance(data, dict):
             raise InputError(path, "must be a table")
         self.data, self.path, self.used = data, path, set()
+        self.notes = [] if notes is None else notes     # warnings, shared by a scene's tables
 
     def key(self, name):
         return f"{self.path}.{name}" if self.path else name
@@ -175,7 +176,7 @@ class _Table:
         if minimum is not None and value < minimum:
             raise InputError(self.key(name), f"must be at least {minimum}")
         if name in PLAUSIBLE:
-            _check_plausible(self.key(name), name, value, kind)
+            _check_plausible(self.key(name), name, value, kind, self.notes)
         return value
 
     def choice(self, name, allowed, default=None):
@@ -274,7 +275,7 @@ def _soil(t: _Table) -> SoilSpec:
     layers = t.raw("layers")
     if not isinstance(layers, list) or not layers:
         raise InputError(t.key("layers"), "give at least one [[soil.layers]] table")
-    specs = tuple(_layer(_Table(layer, f"{t.key('layers')}[{i}]"), i == len(layers) - 1)
+    specs = tuple(_layer(_Table(layer, f"{t.key('layers')}[{i}]", t.notes), i == len(layers) - 1)
                   for i, layer in enumerate(layers))
     t.done()
     return SoilSpec(gamma, specs)
@@ -302,11 +303,11 @@ def parse_scene(data: dict) -> Scene:
     for name in ("wheel", "soil", "loading"):
         if not top.has(name):
             raise InputError(name, "section is required")
-        sections[name] = _Table(top.raw(name), name)
+        sections[name] = _Table(top.raw(name), name, top.notes)
     wheel = _wheel(sections["wheel"])
     soil = _soil(sections["soil"])
     loading = _loading(sections["loading"], wheel)
-    model_table = _Table(top.raw("model", {}), "model")
+    model_table = _Table(top.raw("model", {}), "model", top.notes)
     model = ModelSpec(accuracy=model_table.choice("accuracy", ACCURACIES, default=DEFAULT_ACCURACY),
                       kinematics=model_table.choice("kinematics", KINEMATICS, default=DEFAULT_KINEMATICS),
                       linear_solver=model_table.choice("linear_solver", LINEAR_SOLVERS, default=DEFAULT_LINEAR_SOLVER),
@@ -323,6 +324,8 @@ def parse_scene(data: dict) -> Scene:
                                  "the smoothed surface's rounded tip needs a cohesion); use drucker-prager for c = 0")
     model_table.done()
     top.done()
+    for note in top.notes:
+        log.warning(note)
     return Scene(wheel, soil, loading, model)
 
 
