@@ -109,3 +109,4 @@ def test_record_output_into_a_directory_is_refused(tmp_path, capsys):
                                        "--min-strength", "100 kPa", "--out", str(tmp_path)])
     assert code == 2 and payload["field"] == "--out" and "is a directory" in payload["message"]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["record.csv"]
+

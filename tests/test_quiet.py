@@ -3,6 +3,7 @@ the terminal unless --verbose; rollsim's own progress is shown; the version is r
 from __future__ import annotations
 
 import logging
+import pathlib
 
 import pytest
 from mpi4py import MPI
@@ -54,3 +55,16 @@ def test_version(capsys):
     assert rollsim.__version__ == version("rollsim")
     assert main(["--version"]) == 0
     assert capsys.readouterr().out.strip() == f"rollsim {rollsim.__version__}"
+
+
+def test_errors_of_parallel_commands_are_printed_once(tmp_path_factory, capsys):
+    """Under mpirun every rank runs `rollsim run`; a bad scene is reported by rank 0 only."""
+    comm = MPI.COMM_WORLD
+    path = tmp_path_factory.mktemp("scene") / "bad.toml"
+    scene = pathlib.Path(__file__).resolve().parents[1] / "examples" / "indentation_mndot.toml"
+    path.write_text(scene.read_text().replace('diameter = "1.524 m"', 'diameter = "1,5 m"'))
+    code = main(["run", str(path), "--out", str(path.parent / "out")])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2
+    assert err == (["rollsim: error: wheel.diameter: use a decimal point, not a comma (and no thousands "
+                    "separators): '1,5 m'"] if comm.rank == 0 else [])
