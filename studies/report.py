@@ -16,6 +16,7 @@ import re
 import numpy as np
 
 from rollsim.files import read_text
+from rollsim.studies.study import other_parameters
 from rollsim.units import InputError
 
 MAX_CURVES = 16  # force-sinkage curves per figure
@@ -107,9 +108,7 @@ def effect_series(params: dict[str, dict], names: list[str], key: str) -> list[l
     swept parameter, each series ordered by ``key``; series of a single case are dropped."""
     series: dict = {}
     for name in names:
-        p = params[name]
-        rest = tuple(sorted((k, repr(v)) for k, v in p.items() if k != key))
-        series.setdefault(rest, []).append(name)
+        series.setdefault(other_parameters(params[name], key), []).append(name)
     return [sorted(group, key=lambda n: params[n][key]) for group in series.values() if len(group) > 1]
 
 
@@ -158,8 +157,7 @@ def _pair_figure(out, key, ok, params, distinct, load_tag):
     by_rest: dict = {}
     for r in ok:
         p = params[r["case"]]
-        rest = tuple(sorted((k, repr(v)) for k, v in p.items() if k != key))
-        by_rest.setdefault(rest, {})[p[key]] = r
+        by_rest.setdefault(other_parameters(p, key), {})[p[key]] = r
     pairs = [(g[distinct[0]], g[distinct[1]]) for g in by_rest.values() if len(g) == 2]
     if not pairs:
         return []

@@ -400,6 +400,12 @@ def _csv_cell(value) -> str:
     return f'"{text}"' if ("," in text or '"' in text) else text
 
 
+def other_parameters(params: dict, key: str) -> tuple:
+    """A case's swept parameters other than ``key``, as a hashable key for grouping cases that
+    differ in ``key`` only."""
+    return tuple(sorted((k, repr(v)) for k, v in params.items() if k != key))
+
+
 def ineffective_keys(study: "Study") -> list[str]:
     """Swept keys that the study's runner does not use: the analytic runner reads only the
     bearing-capacity model's inputs (wheel, top layer's strength, unit weight, protocol), so a
@@ -412,8 +418,7 @@ def ineffective_keys(study: "Study") -> list[str]:
     for key in keys:
         groups: dict = {}
         for c in study.cases:
-            rest = tuple(sorted((k, repr(v)) for k, v in c.overrides.items() if k != key))
-            groups.setdefault(rest, []).append(c)
+            groups.setdefault(other_parameters(c.overrides, key), []).append(c)
         varied = [g for g in groups.values() if len({repr(c.overrides.get(key)) for c in g}) > 1]
         if varied and all(len({inputs[c.name] for c in g}) == 1 for g in varied):
             found.append(key)
