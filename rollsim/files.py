@@ -100,5 +100,5 @@ def output_file(path, field: str) -> pathlib.Path:
     path = pathlib.Path(path)
     if path.is_dir():
         raise InputError(field, f"{path} is a directory, not a file")
-    output_directory(path.parent if str(path.parent) else ".", field)
+    output_directory(path.parent, field)
     return path

@@ -291,16 +291,11 @@ def case_state(case_dir: pathlib.Path, expected: str) -> str:
 
 def _plan(study: "Study", out: pathlib.Path, comm: MPI.Comm) -> dict:
     """``{case name: state}`` read on rank 0 and broadcast (every rank runs the same cases)."""
-    states, error = None, None
-    if comm.rank == 0:
-        try:
+    states = None
+    with root_block(comm) as on_root:  # a failed read on rank 0 fails every rank, not a hang
+        if on_root:
             states = {c.name: case_state(out / "cases" / c.name, fingerprint(c, study)) for c in study.cases}
-        except Exception as exc:  # noqa: BLE001 - raised below on every rank
-            error = f"{type(exc).__name__}: {exc}"
-    states, error = comm.bcast((states, error), root=0)
-    if error is not None:
-        raise RuntimeError(f"reading the finished cases of {out}: {error}")
-    return states
+    return comm.bcast(states, root=0)
 
 
 CaseRunner = Callable[[Case, pathlib.Path, MPI.Comm], dict]
