@@ -41,12 +41,13 @@ from dataclasses import dataclass
 import numpy as np
 import ufl
 from dolfinx import fem
+from dolfinx.fem import petsc as fpetsc
 from mpi4py import MPI
 from petsc4py import PETSc
 
 from rollsim import compat
 
-__all__ = ["Circle", "RigidWheelContact", "WheelForces", "ufl_signed_distance", "DEFAULT_PENALTY"]
+__all__ = ["Circle", "RigidWheelContact", "WheelForces", "PoseDerivatives", "ufl_signed_distance", "DEFAULT_PENALTY"]
 
 #: Default penalty factor alpha in kappa = alpha E / h (measured: docs, "Wheel contact, indentation").
 DEFAULT_PENALTY = 10.0
@@ -105,6 +106,19 @@ def ufl_signed_distance(wheel, p):
         n_y = ufl.conditional(outside, out_y / out_len, ufl.conditional(rho_wins, 0.0, 1.0))
         return dist, n_rho * e_rho + (n_y * sgn_y) * e_y
     raise TypeError(f"unsupported wheel {type(wheel).__name__}: Circle (2D), CylinderWheel or TorusWheel (3D)")
+
+
+@dataclass
+class PoseDerivatives:
+    """Border of a Newton system with pose unknowns ``q`` (see
+    :meth:`RigidWheelContact.pose_derivatives`): resultant ``values`` G (n), ``d_pose`` dG/dq
+    (n x m), ``d_displacement`` dG/du (n PETSc vectors) and ``residual_d_pose`` dr/dq (m PETSc
+    vectors, r the soil's residual)."""
+
+    values: np.ndarray
+    d_pose: np.ndarray
+    d_displacement: list
+    residual_d_pose: list
 
 
 @dataclass
@@ -194,9 +208,14 @@ class RigidWheelContact:
             comps[iv] = -s * a[0] + cth * a[iv]
             return ufl.as_vector(comps)
 
-        p = rot(self.angle, x - self.centre, transpose=True)
+        # the pose's unknowns of a bordered Newton step (axle height, rotation) as UFL variables,
+        # so forms can be differentiated with respect to them (see :meth:`pose_derivatives`)
+        self._pose_vars = {"height": ufl.variable(self.centre[iv]), "angle": ufl.variable(self.angle)}
+        centre = ufl.as_vector([self._pose_vars["height"] if i == iv else self.centre[i] for i in range(gdim)])
+        angle = self._pose_vars["angle"]
+        p = rot(angle, x - centre, transpose=True)
         g, n_w = ufl_signed_distance(wheel, p)
-        n = rot(self.angle, n_w)
+        n = rot(angle, n_w)
         self.gap, self.normal = g, n
         # normal pressure kappa <-g>_+, optionally with the kink rounded over a band |g| < eps
         # (C1 quadratic blend; eps = smoothing * h) - helps Newton when many points change status
@@ -212,7 +231,7 @@ class RigidWheelContact:
         if self.friction > 0:
             V = pb.V
             self.t_n = fem.Function(V, name="friction_traction_converged")
-            x_prev = self.centre_n + rot(self.angle_n, rot(self.angle, x - self.centre, transpose=True))
+            x_prev = self.centre_n + rot(self.angle_n, rot(angle, x - centre, transpose=True))
             slip = x_prev - (X + u_n)
             PT = ufl.Identity(gdim) - ufl.outer(n, n)
             t_tr = ufl.dot(PT, self.t_n) - self._kt_c * ufl.dot(PT, slip)
@@ -238,10 +257,12 @@ class RigidWheelContact:
 
         # resultant forms (on the wheel = - on the soil)
         self._force_forms = [fem.form(-traction[i] * self.ds) for i in range(gdim)]
-        r = x - self.centre
+        r = x - centre
         # moment about the axle (+y in 3D, +z in 2D) of the force -traction applied at x
         mom = -(r[iv] * traction[0] - r[0] * traction[iv]) if gdim == 3 else -(r[0] * traction[1] - r[1] * traction[0])
         self._moment_form = fem.form(mom * self.ds)
+        self._resultants = {"vertical_force": -traction[iv], "moment": mom}
+        self._border_forms: dict = {}
         self._area_form = fem.form(ufl.conditional(ufl.lt(g, 0.0), 1.0, 0.0) * self.ds)
         self._committed = None
 
@@ -277,6 +298,62 @@ class RigidWheelContact:
         left as set (the caller resets it with :meth:`set_pose` when needed)."""
         if self.t_n is not None:
             self.t_n.x.array[:] = self._t_n_saved
+
+    # ------------------------------------------------------------------ bordered Newton
+    def pose_derivatives(self, quantities: tuple[str, ...], unknowns: tuple[str, ...]) -> "PoseDerivatives":
+        """Values and derivatives, at the current displacement and pose, of the resultants
+        ``quantities`` (``"vertical_force"``, N; ``"moment"``, N m; modelled part of the wheel)
+        with respect to the displacement and to the pose ``unknowns`` (``"height"`` of the axle,
+        m; ``"angle"``, rad), and of the contact residual with respect to the unknowns: the border
+        rows and columns of a Newton system in which the pose is solved with the soil (exact
+        derivatives of the discrete contact law; Dirichlet rows are zero)."""
+        for name in quantities:
+            if name not in self._resultants:
+                raise ValueError(f"quantity must be one of {sorted(self._resultants)}, got {name!r}")
+        for name in unknowns:
+            if name not in self._pose_vars:
+                raise ValueError(f"unknown must be one of {sorted(self._pose_vars)}, got {name!r}")
+        key = (quantities, unknowns)
+        if key not in self._border_forms:
+            self._border_forms[key] = self._compile_border(quantities, unknowns)
+        value_f, dq_f, du_f, dres_f, vecs = self._border_forms[key]
+        comm, bcs = self.problem.comm, self.problem.bcs
+        x0 = compat.petsc_vector(self.problem.u)
+
+        def scalar(form):
+            return float(comm.allreduce(fem.assemble_scalar(form), op=MPI.SUM))
+
+        for form, vec in zip(du_f + dres_f, vecs):
+            with vec.localForm() as loc:
+                loc.set(0.0)
+            fpetsc.assemble_vector(vec, form)
+            vec.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+            compat.set_bc(vec, bcs, x0, 0.0)            # Dirichlet rows: 0
+        n = len(value_f)
+        return PoseDerivatives(values=np.array([scalar(f) for f in value_f]),
+                               d_pose=np.array([[scalar(f) for f in row] for row in dq_f]).reshape(n, -1),
+                               d_displacement=vecs[:n], residual_d_pose=vecs[n:])
+
+    def _compile_border(self, quantities, unknowns):
+        u, v = self.problem.u, self.problem.test_function
+        q = [self._pose_vars[k] for k in unknowns]
+        res = [self._resultants[k] for k in quantities]
+        value_f = [fem.form(r * self.ds) for r in res]
+        dq_f = [[fem.form(ufl.diff(r, qk) * self.ds) for qk in q] for r in res]
+        du_f = [fem.form(ufl.derivative(r * self.ds, u, v)) for r in res]
+        dres_f = [fem.form(-ufl.inner(ufl.diff(self.traction, qk), v) * self.ds) for qk in q]
+        return value_f, dq_f, du_f, dres_f, [compat.create_vector(f) for f in du_f + dres_f]
+
+    def move_pose(self, unknowns: tuple[str, ...], increments) -> None:
+        """Add ``increments`` to the pose ``unknowns`` (see :meth:`pose_derivatives`)."""
+        iv = self.gdim - 1
+        for name, dq in zip(unknowns, increments):
+            if name == "height":
+                c = np.array(self.centre.value, dtype=float)
+                c[iv] += dq
+                self.centre.value = c
+            else:
+                self.angle.value = float(self.angle.value) + dq
 
     # ------------------------------------------------------------------ results
     def forces(self) -> WheelForces:

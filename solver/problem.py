@@ -27,7 +27,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
-from typing import Sequence
+from typing import Protocol, Sequence
 
 import numpy as np
 import ufl
@@ -148,6 +148,34 @@ class NewtonReport:
     residual_norms: list[float] = field(default_factory=list)
     time: float = 0.0
     counts: dict = field(default_factory=dict)   # global elastic/plastic/apex quadrature points
+    linear_solves: int = 0
+
+
+class Border(Protocol):
+    """Extra unknowns ``q`` (``size`` of them) and equations ``G(u, q) = 0`` appended to a
+    problem's Newton system (:meth:`PlasticityProblem.solve_increment`)."""
+
+    size: int
+    #: the unknowns are held at their values (plain Newton on the displacement) until the force
+    #: residual is below ``hold_rtol`` times its initial value (0: until it has converged)
+    hold_rtol: float
+
+    def evaluate(self):
+        """At the current displacement and ``q``: an object with ``values`` G (n), ``d_pose``
+        dG/dq (n x n), ``d_displacement`` dG/du and ``residual_d_pose`` dr/dq (n PETSc vectors
+        each, Dirichlet rows 0), as :class:`~rollsim.solver.contact.PoseDerivatives`."""
+
+    def satisfied(self, values: np.ndarray) -> bool:
+        """Whether ``G`` is within its tolerance."""
+
+    #: weights of ``G`` in the line search's merit function ``|r|^2 + |W G|^2`` (N per unit of G)
+    merit_weights: np.ndarray
+
+    def limit(self, dq: np.ndarray) -> np.ndarray:
+        """The increment to take for the proposed Newton increment ``dq``."""
+
+    def move(self, dq: np.ndarray) -> None:
+        """Add ``dq`` to the unknowns."""
 
 
 def rigid_body_modes(V) -> PETSc.NullSpace:
@@ -316,7 +344,8 @@ class PlasticityProblem:
         if linear_solver == "iterative":
             self.petsc_options.update(ITERATIVE_SOLVER_OPTIONS)
         self.petsc_options.update(petsc_options or {})
-        self.timings = {"residual": 0.0, "jacobian": 0.0, "return_map": 0.0, "snes": 0.0, "iterations": 0}
+        self.timings = {"residual": 0.0, "jacobian": 0.0, "return_map": 0.0, "snes": 0.0, "iterations": 0,
+                        "linear_solves": 0}
         self._force_scale = 0.0
         self._history: list[float] = []
 
@@ -611,28 +640,38 @@ class PlasticityProblem:
         return PETSc.SNES.ConvergedReason.ITERATING
 
     # ------------------------------------------------------------------ public stepping API
-    def solve_increment(self) -> NewtonReport:
+    def solve_increment(self, border: "Border | None" = None) -> NewtonReport:
         """Newton solve from the last converged state for the current boundary data.
 
+        ``border``: extra unknowns solved with the displacement in one Newton system (see
+        :class:`Border`; e.g. the wheel's rotation and height); ``None``: PETSc SNES.
         Does not commit: call :meth:`commit` (accept) or :meth:`restore` (reject) afterwards.
         """
         self._compile()
         self._history = []
+        self._linear_solves = 0
         t0 = time.perf_counter()
         compat.petsc_vector(self.u).copy(self._x)
+        its = 0
         try:
-            self.snes.solve(None, self._x)
-            reason = self.snes.getConvergedReason()
+            if border is None:
+                self.snes.solve(None, self._x)
+                reason, its = self.snes.getConvergedReason(), self.snes.getIterationNumber()
+                self._linear_solves = its
+            else:
+                reason, its = self._bordered_newton(border)
         except PETSc.Error as err:        # e.g. a zero pivot in the factorisation
             # one line (a flooded stdout/stderr pipe has killed a rank under mpirun); the full
             # PETSc traceback only at DEBUG
+            its = max(len(self._history) - 1, 0)
             code = getattr(err, "ierr", None)
-            log.warning("SNES raised PETSc error %s after %d iterations (%s); linear solver re-created",
-                        code, self.snes.getIterationNumber(), _first_line(err))
-            log.debug("SNES PETSc error traceback:\n%s", err)
+            log.warning("Newton raised PETSc error %s after %d iterations (%s); linear solver re-created",
+                        code, its, _first_line(err))
+            log.debug("PETSc error traceback:\n%s", err)
             reason = REASON_PETSC_ERROR
             self.reset_linear_solver()
         except ReturnMapError as err:       # raised in the tangent's evaluation, on all ranks
+            its = max(len(self._history) - 1, 0)
             log.info("%s (tangent)", err)
             reason = REASON_RETURN_MAP
             self.reset_linear_solver()
@@ -640,13 +679,13 @@ class PlasticityProblem:
             # a failed MUMPS factorisation (e.g. zero pivots from apex points) leaves the factor in
             # its error state and every later factorisation is skipped: without a fresh linear
             # solver all following (cut) steps fail the same way
-            log.info("linear solve failed inside SNES (%s); linear solver re-created",
+            log.info("linear solve failed inside Newton (%s); linear solver re-created",
                      self.snes.getKSP().getConvergedReason())
             self.reset_linear_solver()
-        its = self.snes.getIterationNumber()
         dt = time.perf_counter() - t0
         self.timings["snes"] += dt
         self.timings["iterations"] += its
+        self.timings["linear_solves"] += self._linear_solves
         converged = reason > 0
         if converged:
             self._x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
@@ -654,7 +693,90 @@ class PlasticityProblem:
             self.constitutive_update(tangent=False)   # stress of the accepted iterate
         return NewtonReport(converged=converged, iterations=its, reason=int(reason),
                             residual_norms=list(self._history), time=dt,
-                            counts=self.counts() if converged else {})
+                            counts=self.counts() if converged else {}, linear_solves=self._linear_solves)
+
+    def _bordered_newton(self, border: "Border") -> tuple[int, int]:
+        """Newton's method on ``(u, q)`` with the border's equations ``G(u, q) = 0``; returns the
+        (SNES-style) converged reason and the number of iterations.
+
+        Each iteration solves ``[K B; C D] [du; dq] = -[r; G]`` by block elimination with the
+        problem's linear solver: ``K y0 = r`` and ``K Y = B`` (one factorisation or
+        preconditioner set-up, ``1 + m`` solves), ``(D - C Y) dq = C y0 - G`` (m x m),
+        ``du = -(y0 + Y dq)`` with ``dq`` as limited by ``border.limit`` (``du`` then solves the
+        soil's equations for that ``dq``).  The step is then backtracked on
+        ``|r|^2 + |W G|^2`` (``W = border.merit_weights``) when the problem's SNES line search
+        is ``bt``.  Converged when the force residual passes the usual test and
+        ``border.satisfied(G)``."""
+        ITERATING = PETSc.SNES.ConvergedReason.ITERATING
+        ksp, x, b, A = self.snes.getKSP(), self._x, self._b, self._A
+        max_it = self.snes.getTolerances()[3]
+        backtrack = self.petsc_options.get("snes_linesearch_type") == "bt"
+        y0, x_old = x.duplicate(), x.duplicate()
+        Y = [x.duplicate() for _ in range(border.size)]
+
+        def holds(fnorm, force_ok):
+            """The pose is held (plain Newton on the displacement, border forms not assembled) until
+            the force residual is below hold_rtol of its initial value, or has converged."""
+            return not force_ok and fnorm > border.hold_rtol * self._fnorm0
+
+        def merit(fnorm, der):
+            return fnorm ** 2 + (0.0 if der is None else float(np.sum((border.merit_weights * der.values) ** 2)))
+
+        it = 0
+        self._snes_F(self.snes, x, b)
+        fnorm, der = b.norm(), None
+        try:
+            while True:
+                reason = self._snes_converged(self.snes, it, (0.0, 0.0, fnorm))
+                force_ok = reason > 0
+                held = holds(fnorm, force_ok)
+                if der is None and not held:
+                    der = border.evaluate()
+                if force_ok and not border.satisfied(der.values):
+                    reason = ITERATING if it < max_it else PETSc.SNES.ConvergedReason.DIVERGED_MAX_IT
+                if reason != ITERATING:
+                    return reason, it
+                self._snes_J(self.snes, x, A, A)
+                ksp.setOperators(A, A)
+                for rhs, sol in zip([b] if held else [b, *der.residual_d_pose], [y0, *Y]):
+                    ksp.solve(rhs, sol)
+                    self._linear_solves += 1
+                    if ksp.getConvergedReason() < 0:
+                        return PETSc.SNES.ConvergedReason.DIVERGED_LINEAR_SOLVE, it
+                dq = np.zeros(border.size)
+                if not held:
+                    C = der.d_displacement
+                    S = der.d_pose - np.array([[c.dot(y) for y in Y] for c in C]).reshape(der.d_pose.shape)
+                    rhs = np.array([c.dot(y0) for c in C]) - der.values
+                    try:
+                        dq = np.linalg.solve(S, rhs)
+                    except np.linalg.LinAlgError:
+                        dq = np.linalg.lstsq(S, rhs, rcond=1e-12)[0]
+                    dq = border.limit(dq)
+                    y0.maxpy(list(dq), Y)
+                phi0 = merit(fnorm, None if held else der)
+                x.copy(x_old)
+                lam, moved = 1.0, 0.0
+                for _ in range(8 if backtrack else 1):
+                    x_old.copy(x)
+                    x.axpy(-lam, y0)
+                    border.move((lam - moved) * dq)
+                    moved = lam
+                    self._snes_F(self.snes, x, b)
+                    fnorm, der = b.norm(), None if held else border.evaluate()
+                    phi = merit(fnorm, der)
+                    if phi <= (1.0 - 2e-4 * lam) * phi0 or not np.isfinite(phi0):
+                        break
+                    # minimum of the quadratic through phi0, phi'(0) = -2 phi0 and phi(lam)
+                    curv = (phi - phi0 + 2.0 * lam * phi0) / lam ** 2 if np.isfinite(phi) else np.inf
+                    lam = float(np.clip(phi0 / curv, 0.1 * lam, 0.5 * lam)) if curv > 0 else 0.5 * lam
+                it += 1
+                log.debug("  bordered Newton %d: |r| %.3e, step %.2g%s", it, fnorm, lam,
+                          "" if held else f", pose move {np.array2string(lam * dq, precision=3)}, "
+                          f"G {np.array2string(der.values, precision=3)}")
+        finally:
+            for vec in (y0, x_old, *Y):
+                vec.destroy()
 
     def reset_linear_solver(self) -> None:
         """Give SNES a fresh KSP with the same options.  After a PETSc error inside SNES (e.g.

@@ -189,6 +189,6 @@ class TravelProgress:
         elapsed = time.perf_counter() - self.t0
         eta = (f", <= {elapsed * (1 - frac) / frac / 60:.1f} min left" if frac > 0.02 else "")
         log.info("[%s%s] %3.0f%%  x = %.3f m  s = %.2f mm (s/d %.4f)  Q_V = %.2f kN  Q_H = %.2f kN  M = %.2g N m  "
-                 "%d its/%d trials%s", "#" * filled, "." * (self.width - filled), 100 * frac, st.travel,
+                 "%d its/%d solves%s", "#" * filled, "." * (self.width - filled), 100 * frac, st.travel,
                  1e3 * st.sinkage, st.sinkage / self.d, st.QV / 1e3, st.QH / 1e3, st.moment, st.iterations,
-                 st.trials, eta)
+                 st.linear_solves, eta)

@@ -394,7 +394,7 @@ def test_petsc_error_in_snes_logs_one_line_and_recovers(comm):
         logger.setLevel(level)
         pb.snes = real
     assert not rep.converged and rep.reason == REASON_PETSC_ERROR
-    snes_warn = [m for m in warn.messages if "SNES raised" in m]
+    snes_warn = [m for m in warn.messages if "Newton raised" in m]
     assert len(snes_warn) == 1 and "\n" not in snes_warn[0] and "PETSc error 75" in snes_warn[0]
     assert any("traceback" in m and "VecAXPY" in m for m in debug.messages)
     assert real.getKSP().handle != ksp_before                 # fresh linear solver
