@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 
 import numpy as np
 
@@ -31,3 +32,21 @@ def read_at(s: np.ndarray, q: np.ndarray, r: float, half: float) -> float:
     if half > 0 and near.sum() >= 3:
         return float(np.polyval(np.polyfit(s[near], q[near], 1), r))
     return float(np.interp(r, s, q))
+
+
+def observed_order(h: list[float], f: list[float]) -> tuple[float, float] | None:
+    """Order ``p`` and extrapolated value of ``f(h) = f0 + C h^p`` through three levels (fine to
+    coarse ``h``), or ``None`` when the changes alternate in sign or vanish (no monotone
+    convergence to extrapolate).  The generalised three-level formula of Celik et al., J. Fluids
+    Eng. 130 (2008) 078001, for unequal refinement ratios."""
+    e21, e32 = f[1] - f[0], f[2] - f[1]
+    if e21 == 0 or e32 == 0 or e32 / e21 < 0:
+        return None
+    r21, r32 = h[1] / h[0], h[2] / h[1]
+    p = 1.0
+    for _ in range(200):            # fixed point of p = |ln|e32/e21| + ln((r21^p - 1)/(r32^p - 1))| / ln r21
+        p_new = abs(math.log(abs(e32 / e21)) + math.log((r21 ** p - 1) / (r32 ** p - 1))) / math.log(r21)
+        if abs(p_new - p) < 1e-10:
+            break
+        p = p_new
+    return p, f[0] + (f[0] - f[1]) / (r21 ** p - 1)

@@ -13,7 +13,7 @@ s0 = 0.01 d at x = 0.4 d and rolls while s is ramped linearly to s_end = 0.05 d 
 Prints Q_V, Q_H at s/d = 0.03, 0.04, 0.05 (``--read``; linear interpolation along the run, or a
 least-squares line over s/d +- ``--window``), the
 bearing-capacity model (rolling, inclined-footing method, D = s) at the same sinkage, steps,
-Newton iterations, torque trials, cuts and wall time.
+Newton iterations, linear solves, cuts and wall time.
 """
 from __future__ import annotations
 
@@ -48,7 +48,7 @@ def run(comm, mu, travel_d, args):
         roll.roll(travel_d * D, args.s_end * D,
                   on_step=(lambda st: print(f"  mu={mu} x={st.travel:.3f} s/d={st.sinkage / D:.4f} "
                                             f"QV={st.QV / 1e3:.2f} kN QH={st.QH / 1e3:.2f} kN M={st.moment:.3g} "
-                                            f"slip={st.slip:.3f} its={st.iterations} trials={st.trials}",
+                                            f"slip={st.slip:.3f} its={st.iterations} solves={st.linear_solves}",
                                             flush=True)) if comm.rank == 0 and args.verbose else None)
     except SolverDivergedError as err:
         status = f"failed: {err}"
@@ -57,7 +57,7 @@ def run(comm, mu, travel_d, args):
     out = {"mu": mu, "travel_d": travel_d, "ramp_rate": (args.s_end - args.s0) / travel_d, "status": status,
            "cells": tm.stats.cells, "dofs": roll.n_dofs, "steps": len(roll.steps),
            "newton_iterations": roll.newton_iterations, "cuts": roll.cuts,
-           "torque_trials": int(sum(st.trials for st in rolled)),
+           "linear_solves": int(sum(st.linear_solves for st in rolled)),
            "max_rel_moment": max((abs(st.moment) / (st.QV * D) for st in rolled), default=0.0),
            "time_s": comm.allreduce(time.perf_counter() - t0, op=MPI.MAX), "at": {},
            "curve": [(st.travel, st.sinkage, st.QV, st.QH, st.moment, st.slip) for st in roll.steps]}
@@ -100,7 +100,7 @@ def main():
             if comm.rank == 0:
                 print(f"mu={mu} travel={tr:g} d (ramp ds/dx = {res['ramp_rate']:.4f}): {res['status']}, "
                       f"{res['cells']} cells, {res['dofs']} dofs, {res['steps']} steps, "
-                      f"{res['newton_iterations']} Newton its, {res['torque_trials']} torque trials, "
+                      f"{res['newton_iterations']} Newton its, {res['linear_solves']} linear solves, "
                       f"{res['cuts']} cuts, max |M|/(Q_V d) = {res['max_rel_moment']:.2e}, {res['time_s']:.0f} s",
                       flush=True)
                 for r, v in res["at"].items():

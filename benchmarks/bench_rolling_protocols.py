@@ -5,8 +5,9 @@
 
 Soil: clay, von Mises q_y = ``--yield-stress`` (default 300 kPa, i.e. c = 150 kPa), E = 40 MPa,
 nu = 0.35, gamma = 20 kN/m^3; Mn/DOT roller wheel d = 1.524 m, b = 0.4572 m; half block
-(``--length/--half-width/--depth`` in d), ``--accuracy`` preset, ``--volumetric-strain`` (default pointwise),
-``--relaxation-length`` (mm; Duvaut-Lions, default off).
+(``--length/--half-width/--depth`` in d), ``--accuracy`` preset (or ``--refinement``, elements per d),
+``--volumetric-strain`` (default pointwise), ``--relaxation-length`` (mm; Duvaut-Lions, default off);
+``--phi-dp`` > 0 makes the soil a Drucker-Prager cone with c_dp = ``--yield-stress``.
 
 For each friction coefficient mu:
 
@@ -25,7 +26,7 @@ For each friction coefficient mu:
         --skip-continuous --hold --s0 0.002 --ramp 1.0 --travel 2.0 --cont-length 3.2
 
 Prints s_cl, s_cont and their difference (the issue's agreement criterion is 5 %), Q_H of both,
-the friction effect on the steady sinkage (mu vs the first mu), wall times, steps and trials.
+the friction effect on the steady sinkage (mu vs the first mu), wall times, steps and linear solves.
 """
 from __future__ import annotations
 
@@ -38,7 +39,7 @@ from mpi4py import MPI
 from _bench import add_volumetric_strain, dump_json
 
 from rollsim.geometry import CylinderWheel, MeshOptions, build_soil_block, rolling_block
-from rollsim.solver import SolverDivergedError, VonMises
+from rollsim.solver import DruckerPrager, SolverDivergedError, VonMises
 from rollsim.solver.drivers.rolling_constant_load import measure_rut
 from rollsim.solver.rolling import STEADY_MIN_TRAVEL, WheelRolling
 
@@ -47,12 +48,22 @@ D, B, GAMMA = 1.524, 0.4572, 20e3
 
 def _block(comm, args, stiff, length=None):
     blk = rolling_block(D, length=length or args.length, half_width=args.half_width, depth=args.depth, stiff_length=stiff)
-    return build_soil_block(comm, blk, MeshOptions.from_accuracy(D, args.accuracy))
+    mesh = (MeshOptions.from_refinement(D, args.refinement) if args.refinement
+            else MeshOptions.from_accuracy(D, args.accuracy))
+    return build_soil_block(comm, blk, mesh)
+
+
+def soil(args):
+    """The soil: von Mises q_y = ``--yield-stress``, or with ``--phi-dp`` > 0 a Drucker-Prager cone
+    (c_dp = ``--yield-stress``, psi = 0)."""
+    if args.phi_dp > 0:
+        return DruckerPrager(E=40e6, nu=0.35, phi_dp=np.radians(args.phi_dp), c_dp=args.yield_stress * 1e3)
+    return VonMises(E=40e6, nu=0.35, yield_stress=args.yield_stress * 1e3)
 
 
 def constant_load(comm, mu, args):
     t0 = time.perf_counter()
-    mat = VonMises(E=40e6, nu=0.35, yield_stress=args.yield_stress * 1e3)
+    mat = soil(args)
     roll = WheelRolling(_block(comm, args, args.stiff), CylinderWheel(D, B, B / 12), mat, gamma=GAMMA, friction=mu,
                         volumetric_strain=args.volumetric_strain,
                         relaxation_length=1e-3 * args.relaxation_length)
@@ -72,7 +83,7 @@ def constant_load(comm, mu, args):
         rut = measure_rut(roll, ss, args.stiff * D, L)
         out.update(steady=ss.reached, s_cl=ss.sinkage, QH_cl=ss.QH, travel_at_steady=ss.travel,
                    rut_depth=rut["rut_depth_m"], rebound=rut["rebound_m"], max_rel_moment=max_rel_moment,
-                   trials=int(sum(st.trials for st in roll.steps)))
+                   linear_solves=int(sum(st.linear_solves for st in roll.steps)))
     except SolverDivergedError as err:
         out["status"] = f"failed: {err}"
     out.update(steps=len(roll.steps), newton_iterations=roll.newton_iterations, cuts=roll.cuts,
@@ -104,7 +115,7 @@ def continuous(comm, mu, args, s_hold=None):
     """The continuous protocol; with ``s_hold`` (m) the sinkage is ramped to it over ``--ramp`` d
     and then held to the end of ``--travel`` (steady rolling at a fixed sinkage)."""
     t0 = time.perf_counter()
-    mat = VonMises(E=40e6, nu=0.35, yield_stress=args.yield_stress * 1e3)
+    mat = soil(args)
     roll = WheelRolling(_block(comm, args, 0.0, args.cont_length), CylinderWheel(D, B, B / 12), mat, gamma=GAMMA,
                         friction=mu, volumetric_strain=args.volumetric_strain,
                         relaxation_length=1e-3 * args.relaxation_length)
@@ -145,12 +156,14 @@ def continuous(comm, mu, args, s_hold=None):
     return out
 
 
-def main(argv=None) -> int:
+def parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--mu", type=float, nargs="+", default=[0.0, 0.8])
     p.add_argument("--load", type=float, default=100.0, help="Q_V, kN (whole wheel)")
-    p.add_argument("--yield-stress", type=float, default=300.0, help="von Mises yield stress, kPa")
+    p.add_argument("--yield-stress", type=float, default=300.0, help="von Mises yield stress (or c_dp), kPa")
+    p.add_argument("--phi-dp", type=float, default=0.0, help="Drucker-Prager friction angle, deg (0: von Mises)")
     p.add_argument("--accuracy", default="fast")
+    p.add_argument("--refinement", type=float, help="elements per d under the wheel (overrides --accuracy)")
     p.add_argument("--length", type=float, default=2.4)
     p.add_argument("--half-width", type=float, default=0.8)
     p.add_argument("--depth", type=float, default=0.8)
@@ -176,6 +189,11 @@ def main(argv=None) -> int:
     p.add_argument("--skip-continuous", action="store_true")
     p.add_argument("--skip-constant-load", action="store_true")
     p.add_argument("--out")
+    return p
+
+
+def main(argv=None) -> int:
+    p = parser()
     args = p.parse_args(argv)
     comm = MPI.COMM_WORLD
     results = []

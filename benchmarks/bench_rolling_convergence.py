@@ -1,0 +1,97 @@
+"""Mesh convergence of the constant-load steady sinkage, for both volumetric strains.
+
+    python benchmarks/bench_rolling_convergence.py --soil clay --refinement 8 10 12 \\
+        --out benchmarks/results/rolling_convergence_clay.json
+    python benchmarks/bench_rolling_convergence.py --soil case5 --refinement 8 10 12 \\
+        --out benchmarks/results/rolling_convergence_case5.json
+    python benchmarks/bench_rolling_convergence.py --table benchmarks/results/rolling_convergence_*.json
+
+Scenes (Mn/DOT roller, d = 1.524 m, b = 0.4572 m, towed at constant load on a half block of
+2.6 x 0.8 x 0.8 d with a 0.5 d stiff start zone, as ``bench_rolling_protocols.py``):
+
+* ``clay``: von Mises q_y = 300 kPa, 100 kN, mu = 0;
+* ``case5``: Drucker-Prager phi_dp = 27.5 deg, c_dp = 194.6 kPa (psi = 0), 133.5 kN, mu = 0.8.
+
+Each level is ``--refinement`` elements per diameter under the wheel (the presets are 8 / 20 / 50).
+For each strain the steady sinkage is extrapolated from the three finest levels (Richardson, with
+the observed order from the generalised three-level formula of Celik et al., J. Fluids Eng. 130
+(2008) 078001); a level's error is against that value.  Prints a Markdown table (``--table``
+rebuilds it from saved JSON files without solving).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import math
+
+from mpi4py import MPI
+
+import bench_rolling_protocols as protocols
+from _bench import dump_json, observed_order
+
+from rollsim.solver.options import VOLUMETRIC_STRAINS
+
+SOILS = {"clay": ["--yield-stress", "300", "--load", "100", "--mu", "0"],
+         "case5": ["--yield-stress", "194.6", "--phi-dp", "27.5", "--load", "133.5", "--mu", "0.8"]}
+BLOCK = ["--length", "2.6", "--half-width", "0.8", "--depth", "0.8", "--stiff", "0.5", "--cl-travel", "1.5"]
+
+
+def table(results: list[dict]) -> str:
+    """Markdown table of the levels of each (soil, strain): sinkage, change against the next
+    coarser level, error against the extrapolated value, cost."""
+    lines = ["| soil | strain | elements / d | dofs | steady sinkage | change vs coarser | error vs extrapolated "
+             "| Newton its | wall time (ranks) |", "|---|---|---|---|---|---|---|---|---|"]
+    notes = []
+    for key in sorted({(r["soil"], r["strain"]) for r in results}):
+        rows = sorted((r for r in results if (r["soil"], r["strain"]) == key and r.get("s_cl")),
+                      key=lambda r: -r["refinement"])
+        fit = None
+        if len(rows) >= 3:
+            fit = observed_order([1 / r["refinement"] for r in rows[:3]], [r["s_cl"] for r in rows[:3]])
+        if fit:
+            notes.append(f"{key[0]}, {key[1]}: observed order {fit[0]:.2f}, extrapolated sinkage {1e3 * fit[1]:.2f} mm")
+        elif len(rows) >= 3:
+            notes.append(f"{key[0]}, {key[1]}: the three finest levels do not converge monotonically")
+        for i, r in enumerate(sorted(rows, key=lambda r: r["refinement"])):
+            coarser = [c for c in rows if c["refinement"] < r["refinement"]]
+            change = f"{100 * (r['s_cl'] / coarser[0]['s_cl'] - 1):+.1f} %" if coarser else ""
+            err = f"{100 * (r['s_cl'] / fit[1] - 1):+.1f} %" if fit else ""
+            lines.append(f"| {key[0]} | {key[1]} | {r['refinement']:g} | {r['dofs']} | {1e3 * r['s_cl']:.2f} mm "
+                         f"| {change} | {err} | {r['newton_iterations']} | {r['time_s']:.0f} s ({r['ranks']}) |")
+    return "\n".join(lines + [""] + [f"- {n}" for n in notes])
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--soil", choices=sorted(SOILS), default="clay")
+    p.add_argument("--refinement", type=float, nargs="+", default=[8.0, 10.0, 12.0])
+    p.add_argument("--volumetric-strain", choices=VOLUMETRIC_STRAINS, nargs="+", default=list(VOLUMETRIC_STRAINS))
+    p.add_argument("--table", nargs="+", metavar="JSON", help="print the table of saved results and stop")
+    p.add_argument("--out")
+    args = p.parse_args(argv)
+    comm = MPI.COMM_WORLD
+    if args.table:
+        results = [r for path in args.table for r in json.load(open(path))["results"]]
+        if comm.rank == 0:
+            print(table(results))
+        return 0
+    results = []
+    for strain in args.volumetric_strain:
+        for n in args.refinement:
+            level = protocols.parser().parse_args(SOILS[args.soil] + BLOCK + [
+                "--refinement", str(n), "--volumetric-strain", strain, "--skip-continuous"])
+            cl = protocols.constant_load(comm, level.mu[0], level)
+            cl.pop("curve")
+            results.append({"soil": args.soil, "strain": strain, "refinement": n, "ranks": comm.size, **cl})
+            if comm.rank == 0:
+                print(f"{args.soil}, {strain}, {n:g} elements / d: {cl['status']}, steady {cl.get('steady')}, "
+                      f"s = {1e3 * cl.get('s_cl', math.nan):.2f} mm, {cl['dofs']} dofs, "
+                      f"{cl['newton_iterations']} Newton its, {cl['time_s']:.0f} s", flush=True)
+            dump_json(comm, args.out, {"args": vars(args), "results": results})
+    if comm.rank == 0:
+        print(table([{**r, "ranks": comm.size} for r in results]))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
