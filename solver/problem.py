@@ -347,6 +347,7 @@ class PlasticityProblem:
         self.timings = {"residual": 0.0, "jacobian": 0.0, "return_map": 0.0, "snes": 0.0, "iterations": 0,
                         "linear_solves": 0}
         self._force_scale = 0.0
+        self._gap = None                 # work vector of _dirichlet_gap
         self._history: list[float] = []
 
     # ------------------------------------------------------------------ helpers
@@ -599,10 +600,23 @@ class PlasticityProblem:
         self._force_scale = b.norm()      # includes the reactions: units-consistent floor
         with b.localForm() as b_local:       # ghosts were added to their owners: clear them
             b_local.array[b.getLocalSize():] = 0.0
-        compat.apply_lifting(b, [self._J_form], self.bcs, x, scale=-1.0)
-        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        if self._dirichlet_gap(x):
+            compat.apply_lifting(b, [self._J_form], self.bcs, x, scale=-1.0)
+            b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         compat.set_bc(b, self.bcs, x, -1.0)
         self.timings["residual"] += time.perf_counter() - t0
+
+    def _dirichlet_gap(self, x) -> bool:
+        """Whether ``x`` misses a Dirichlet value anywhere (collective).  Where it does not, the
+        lifting of the residual adds exactly zero and is skipped: it runs the tangent's element
+        kernels on every constrained cell, about a third of the cost of a matrix assembly."""
+        if not self.bcs:
+            return False
+        if self._gap is None:
+            self._gap = x.duplicate()
+        self._gap.set(0.0)
+        compat.set_bc(self._gap, self.bcs, x, 1.0)
+        return self._gap.norm(PETSc.NormType.NORM_INFINITY) > 0.0
 
     def _snes_J(self, snes, x, A, P) -> None:
         t0 = time.perf_counter()

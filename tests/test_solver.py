@@ -327,6 +327,30 @@ def test_prandtl_von_mises_converges_to_2_plus_pi(comm, volumetric_strain):
     assert rate > 0.9, (errs, rate)
 
 
+def test_residual_lifting_only_where_a_dirichlet_value_is_missed(comm):
+    """The residual's lifting is skipped where the iterate meets every Dirichlet value (it adds
+    exactly zero there: the residual under gravity equals the one with the lifting always on), and
+    kept where the iterate misses one (a prescribed settlement not reached yet)."""
+    from rollsim import compat
+    from rollsim.solver import StripFooting, strip_footing_mesh
+    ft = StripFooting(strip_footing_mesh(comm, B=1.0, n=2), von_mises_from_tresca(E, NU, C), B=1.0,
+                      unit_weight=20e3)
+    pb = ft.problem
+    pb._compile()
+    x = compat.petsc_vector(pb.u).copy()
+    assert not pb._dirichlet_gap(x)
+    b_skip, b_full = x.duplicate(), x.duplicate()
+    pb._snes_F(None, x, b_skip)
+    gap = pb._dirichlet_gap
+    pb._dirichlet_gap = lambda x: True               # the lifting always on
+    pb._snes_F(None, x, b_full)
+    pb._dirichlet_gap = gap
+    b_full.axpy(-1.0, b_skip)
+    assert b_skip.norm() > 0 and b_full.norm() <= 1e-14 * b_skip.norm()
+    ft.settlement.value = -1e-3
+    assert pb._dirichlet_gap(x)
+
+
 @pytest.mark.parametrize("phi_deg", [20.0, 30.0])
 def test_prandtl_associated_drucker_prager(comm, phi_deg):
     """Associated DP matched to MC in plane strain, weightless: p_lim = c N_c(phi) (Prandtl-Reissner).
