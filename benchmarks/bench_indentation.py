@@ -32,6 +32,7 @@ from mpi4py import MPI
 from _bench import add_volumetric_strain
 
 from rollsim.geometry import CylinderWheel, MeshOptions, build_soil_block, indentation_block
+from rollsim.geometry.mesh import ACCURACY_REFINEMENT
 from rollsim.solver.options import DEFAULT_VOLUMETRIC_STRAIN, LINEAR_SOLVERS
 from rollsim.solver import DruckerPrager, SolverDivergedError, StepControl, VonMises
 from rollsim.solver.indentation import WheelIndentation
@@ -45,13 +46,26 @@ def case_row(n):
     return next(r for r in csv.DictReader(CASES.open()) if int(r["case"]) == n)
 
 
+def case_soil(n):
+    """Report case ``n``: (material, d, b, gamma, mu, c, phi) with the compression-matched
+    Mohr-Coulomb (c, phi) of the bearing-capacity model (SI units, radians)."""
+    r = case_row(n)
+    d, b, E, nu = float(r["d_m"]), float(r["b_m"]), float(r["E_MPa"]) * 1e6, float(r["nu"])
+    phi_dp, c_dp = math.radians(float(r["phi_dp_deg"])), float(r["c_dp_kPa"]) * 1e3
+    mat = VonMises(E=E, nu=nu, yield_stress=c_dp) if phi_dp == 0 else DruckerPrager(E=E, nu=nu, phi_dp=phi_dp, c_dp=c_dp)
+    return (mat, d, b, float(r["gamma_kN_m3"]) * 1e3, float(r["mu"]), float(r["c_mc_compression_kPa"]) * 1e3,
+            math.radians(float(r["phi_mc_compression_deg"])))
+
+
 def run(comm, accuracy, mat, d, b, gamma, mu, s_end=0.1, linear_solver="auto", verbose=False, fixed_steps=0,
         volumetric_strain=DEFAULT_VOLUMETRIC_STRAIN, checkpoint=None, petsc_options=None, step=0.0):
-    """One push; ``step`` (s/d, > 0): every step that long (a failed step is cut inside it);
+    """One push on the ``accuracy`` preset (or that many elements per d); ``step`` (s/d, > 0): every step that long (a failed step is cut inside it);
     with ``checkpoint`` (a directory) the state is written at every reading stop and a run finding
     one there continues from it (same mesh and path, any number of ranks)."""
     t0 = time.perf_counter()
-    tm = build_soil_block(comm, indentation_block(d), MeshOptions.from_accuracy(d, accuracy))
+    mesh = (MeshOptions.from_accuracy(d, accuracy) if accuracy in ACCURACY_REFINEMENT
+            else MeshOptions.from_refinement(d, float(accuracy)))
+    tm = build_soil_block(comm, indentation_block(d), mesh)
     ind = WheelIndentation(tm, CylinderWheel(d, b, b / 12), mat, gamma=gamma, friction=mu,
                            linear_solver=linear_solver, volumetric_strain=volumetric_strain,
                            petsc_options=petsc_options)
@@ -113,7 +127,8 @@ def solve_cost(comm, presets, linear_solvers) -> None:
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--cases", type=int, nargs="*", default=[2, 5])
-    ap.add_argument("--accuracy", nargs="+", default=["fast", "standard"])
+    ap.add_argument("--accuracy", nargs="+", default=["fast", "standard"],
+                    help="presets (fast, standard, accurate) or elements per d under the wheel")
     ap.add_argument("--c0", action="store_true", help="c = 0 soils (phi 35, 40, 45 deg) instead of the cases")
     ap.add_argument("--solve-cost", action="store_true",
                     help="only build each preset's mesh and time one elastic solve per --linear-solver, the "
@@ -148,12 +163,7 @@ def main():
             mat = DruckerPrager.from_mohr_coulomb(40e6, 0.35, 0.0, math.radians(phi), psi=0.0)
             jobs.append((f"c=0 phi={phi}", mat, 1.524, 0.4572, 20e3, 0.8, 0.0, math.radians(phi)))
     for n in ([] if args.c0 else args.cases):
-        r = case_row(n)
-        d, b, E, nu = float(r["d_m"]), float(r["b_m"]), float(r["E_MPa"]) * 1e6, float(r["nu"])
-        phi_dp, c_dp = math.radians(float(r["phi_dp_deg"])), float(r["c_dp_kPa"]) * 1e3
-        mat = VonMises(E=E, nu=nu, yield_stress=c_dp) if phi_dp == 0 else DruckerPrager(E=E, nu=nu, phi_dp=phi_dp, c_dp=c_dp)
-        jobs.append((f"case {n}", mat, d, b, float(r["gamma_kN_m3"]) * 1e3, float(r["mu"]),
-                     float(r["c_mc_compression_kPa"]) * 1e3, math.radians(float(r["phi_mc_compression_deg"]))))
+        jobs.append((f"case {n}", *case_soil(n)))
     for name, mat, d, b, gamma, mu, c, phi in jobs:
         per = []
         for acc in args.accuracy:
