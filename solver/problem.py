@@ -157,8 +157,10 @@ class Border(Protocol):
 
     size: int
     #: the unknowns are held at their values (plain Newton on the displacement) until the force
-    #: residual is below ``hold_rtol`` times its initial value (0: until it has converged)
+    #: residual is below ``hold_rtol`` times its initial value (0: until it has converged) and
+    #: below ``hold_force`` (N; ``inf``: no such bound)
     hold_rtol: float
+    hold_force: float
 
     def evaluate(self):
         """At the current displacement and ``q``: an object with ``values`` G (n), ``d_pose``
@@ -730,8 +732,9 @@ class PlasticityProblem:
 
         def holds(fnorm, force_ok):
             """The pose is held (plain Newton on the displacement, border forms not assembled) until
-            the force residual is below hold_rtol of its initial value, or has converged."""
-            return not force_ok and fnorm > border.hold_rtol * self._fnorm0
+            the force residual is below hold_rtol of its initial value and below hold_force, or
+            has converged."""
+            return not force_ok and (fnorm > border.hold_rtol * self._fnorm0 or fnorm > border.hold_force)
 
         def merit(fnorm, der):
             return fnorm ** 2 + (0.0 if der is None else float(np.sum((border.merit_weights * der.values) ** 2)))
