@@ -10,8 +10,8 @@ of its protocol unless ``--volumetric-strain`` is given):
 * ``indentation-vm``: report case 2 (von Mises, q_y = 200 kPa, mu = 0.8), quarter block, Q_V at
   s/d = 0.02, 0.05 and 0.08;
 * ``indentation-dp``: report case 5 (Drucker-Prager phi_dp = 27.5 deg, c_dp = 194.6 kPa), same;
-* ``rolling-case5``: towed at 133.5 kN on the case-5 soil, the constant-load steady sinkage (the
-  scene of ``bench_rolling_convergence.py``).
+* ``rolling-case5``: towed at 133.5 kN on the case-5 soil, the sinkage of steady rolling (the
+  scene and the measure of ``bench_rolling_convergence.py``).
 
 Each (scene, level, ranks) runs in its own ``mpirun`` process (wall time and peak memory of that
 run alone) and is appended to ``--results`` (JSON, one file per scene); runs already there are not
@@ -101,7 +101,7 @@ def run_scene(comm, scene: str, refinement: float, volumetric_strain: str | None
             "--refinement", str(refinement), "--volumetric-strain", strain, "--skip-continuous"])
         res = protocols.constant_load(comm, args.mu[0], args)
         res.pop("curve")
-        out = {"value": res.get("s_cl") if res.get("steady") else None, "steady": res.get("steady"),
+        out = {"value": convergence.sinkage(res), "steady": res.get("steady"),
                "linear_solves": res.get("linear_solves", res["newton_iterations"])}
     peak = comm.allreduce(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, op=MPI.SUM) / 1024
     steps = max(res["steps"], 1)
