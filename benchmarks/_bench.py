@@ -34,6 +34,11 @@ def read_at(s: np.ndarray, q: np.ndarray, r: float, half: float) -> float:
     return float(np.interp(r, s, q))
 
 
+#: observed orders outside this range mean the levels are not in the asymptotic range (or their
+#: differences are ripple): the benchmarks do not extrapolate then
+ORDER_RANGE = (0.5, 4.0)
+
+
 def observed_order(h: list[float], f: list[float]) -> tuple[float, float] | None:
     """Order ``p`` and extrapolated value of ``f(h) = f0 + C h^p`` through three levels (fine to
     coarse ``h``), or ``None`` when the changes alternate in sign or vanish (no monotone

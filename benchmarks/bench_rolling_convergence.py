@@ -29,7 +29,7 @@ import math
 from mpi4py import MPI
 
 import bench_rolling_protocols as protocols
-from _bench import dump_json, observed_order
+from _bench import ORDER_RANGE, dump_json, observed_order
 
 from rollsim.solver.options import VOLUMETRIC_STRAINS
 
@@ -59,7 +59,11 @@ def table(results: list[dict]) -> str:
         fit = None
         if len(rows) >= 3:
             fit = observed_order([1 / r["refinement"] for r in rows[:3]], [sinkage(r) for r in rows[:3]])
-        if fit:
+        if fit and not ORDER_RANGE[0] <= fit[0] <= ORDER_RANGE[1]:
+            notes.append(f"{key[0]}, {key[1]}: observed order {fit[0]:.2f}, outside {ORDER_RANGE[0]:g}-"
+                         f"{ORDER_RANGE[1]:g}: the levels are not in the asymptotic range, no extrapolation")
+            fit = None
+        elif fit:
             notes.append(f"{key[0]}, {key[1]}: observed order {fit[0]:.2f}, extrapolated sinkage {1e3 * fit[1]:.2f} mm")
         elif len(rows) >= 3:
             notes.append(f"{key[0]}, {key[1]}: the three finest levels do not converge monotonically")
