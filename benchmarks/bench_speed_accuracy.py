@@ -84,11 +84,10 @@ def run_scene(comm, scene: str, refinement: float, volumetric_strain: str | None
     """One run of ``scene`` at ``refinement`` elements per d on ``comm``: the cost and the scored
     quantity (``value``: Q_V at s/d = 0.08 in N, or the steady sinkage in m)."""
     from mpi4py import MPI
-    from rollsim.solver.options import default_volumetric_strain
     t0 = time.perf_counter()
+    strain = scene_strain(scene, volumetric_strain)
     if scene.startswith("indentation"):
         import bench_indentation as indentation
-        strain = volumetric_strain or default_volumetric_strain("indentation")
         case = {"indentation-vm": 2, "indentation-dp": 5}[scene]
         mat, d, b, gamma, mu = indentation.case_soil(case)[:5]
         res = indentation.run(comm, str(refinement), mat, d, b, gamma, mu, s_end=S_READ[-1], volumetric_strain=strain)
@@ -97,7 +96,6 @@ def run_scene(comm, scene: str, refinement: float, volumetric_strain: str | None
     else:
         import bench_rolling_convergence as convergence
         import bench_rolling_protocols as protocols
-        strain = volumetric_strain or default_volumetric_strain("rolling-constant-load")
         args = protocols.parser().parse_args(convergence.SOILS["case5"] + convergence.BLOCK + [
             "--refinement", str(refinement), "--volumetric-strain", strain, "--skip-continuous"])
         res = protocols.constant_load(comm, args.mu[0], args)
@@ -121,7 +119,7 @@ def sweep(args) -> int:
         for ranks in args.ranks:
             for n in args.refinement:
                 runs = load_results(path)
-                if any(r["refinement"] == n and r["ranks"] == ranks and r["volumetric_strain"] == _strain(args, scene)
+                if any(r["refinement"] == n and r["ranks"] == ranks and r["volumetric_strain"] == scene_strain(scene, args.volumetric_strain)
                        for r in runs):
                     continue
                 print(f"{scene}, {level_name(n)} elements / d, {ranks} rank(s) ...", flush=True)
@@ -142,9 +140,10 @@ def sweep(args) -> int:
     return report(args)
 
 
-def _strain(args, scene: str) -> str:
+def scene_strain(scene: str, volumetric_strain: str | None) -> str:
+    """The volumetric strain of a scene's runs: the one given, else its protocol's scene default."""
     from rollsim.solver.options import default_volumetric_strain
-    return args.volumetric_strain or default_volumetric_strain(
+    return volumetric_strain or default_volumetric_strain(
         "indentation" if scene.startswith("indentation") else "rolling-constant-load")
 
 
