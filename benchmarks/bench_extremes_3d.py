@@ -1,4 +1,4 @@
-"""Extremes of issue #4 on the 3D wheel (quarter block, fast preset): each case either converges or
+"""Extreme soils on the 3D wheel (quarter block, fast preset): each case either converges or
 fails with a clear message and the last converged state kept - never hangs (wall-clock guard).
 
     python benchmarks/bench_extremes_3d.py --out bench_extremes_3d.json

@@ -7,7 +7,7 @@ exactly, to the Duvaut-Lions relaxation length (mm of sinkage).
     python benchmarks/bench_frictional_wheel.py --phi 40 --creg 0 --max-wall 1800   # c = 0 exactly
     python benchmarks/bench_frictional_wheel.py --phi 40 --creg 0 --relaxation-length 0 0.0078125 0.00390625
 
-Setup (issue #4): wheel d = 1.524 m, b = 0.4572 m (fillet b/12), mu = 0.8, quarter block at the
+Setup: wheel d = 1.524 m, b = 0.4572 m (fillet b/12), mu = 0.8, quarter block at the
 ``fast`` preset, E = 40 MPa, nu = 0.35, gamma = 20 kN/m^3, K0 default (clipped into the cone),
 Drucker-Prager matched to Mohr-Coulomb (c_reg, phi) in plane strain (``--match``), psi = 0,
 penalty alpha = 1 (``--alpha``), gravity first.  Prints Q_V at s/d = 0.02 / 0.05 / 0.1 (FE and the

@@ -3,7 +3,7 @@
     python benchmarks/bench_indentation.py --cases 2 5 --accuracy fast standard [accurate] --out bench_indentation.json
     python benchmarks/bench_indentation.py --c0 --accuracy fast standard     # c = 0, phi = 35/40/45 deg
     mpirun -n 2 python benchmarks/bench_indentation.py --cases 2 --accuracy standard accurate --s-end 0.05 \
-        --fixed-steps 4                                                       # the 3 % check of issue #4
+        --fixed-steps 4                                                       # standard vs accurate within 3 %
     mpirun -n 2 python benchmarks/bench_indentation.py --cases 2 --accuracy standard --s-end 0.05 \
         --step 0.000625 --volumetric-strain cell-average                      # equal steps of 0.000625 s/d
     mpirun -n 2 python benchmarks/bench_indentation.py --solve-cost --accuracy standard accurate \

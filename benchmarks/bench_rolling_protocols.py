@@ -25,7 +25,7 @@ For each friction coefficient mu:
     mpirun -n 2 python benchmarks/bench_rolling_protocols.py --mu 0 --length 2.6 --cl-travel 1.5 \
         --skip-continuous --hold --s0 0.002 --ramp 1.0 --travel 2.0 --cont-length 3.2
 
-Prints s_cl, s_cont and their difference (the issue's agreement criterion is 5 %), Q_H of both,
+Prints s_cl, s_cont and their difference (the agreement criterion is 5 %), Q_H of both,
 the friction effect on the steady sinkage (mu vs the first mu), wall times, steps and linear solves.
 """
 from __future__ import annotations

@@ -354,7 +354,7 @@ def test_constant_load_rolling(tmp_mpi_path):
     window), and after the wheel is lifted the permanent rut is shallower than the sinkage
     (elastic rebound > 0) but deeper than the sinkage on the stiff zone.
 
-    The two protocols agree (the issue's criterion, 5 %): the continuous protocol, ramped to the
+    The two protocols agree (within 5 %): the continuous protocol, ramped to the
     steady sinkage over 0.4 d and held there for 0.6 d, carries the load (mean Q_V over the last
     0.3 d; +0.1 % when written, with an element ripple of about 4 %)."""
     comm = MPI.COMM_SELF
