@@ -319,10 +319,6 @@ class RigidWheelContact:
         value_f, dq_f, du_f, dres_f, vecs = self._border_forms[key]
         comm, bcs = self.problem.comm, self.problem.bcs
         x0 = compat.petsc_vector(self.problem.u)
-
-        def scalar(form):
-            return float(comm.allreduce(fem.assemble_scalar(form), op=MPI.SUM))
-
         for form, vec in zip(du_f + dres_f, vecs):
             with vec.localForm() as loc:
                 loc.set(0.0)
@@ -330,8 +326,9 @@ class RigidWheelContact:
             vec.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
             compat.set_bc(vec, bcs, x0, 0.0)            # Dirichlet rows: 0
         n = len(value_f)
-        return PoseDerivatives(values=np.array([scalar(f) for f in value_f]),
-                               d_pose=np.array([[scalar(f) for f in row] for row in dq_f]).reshape(n, -1),
+        return PoseDerivatives(values=np.array([_assemble_global(f, comm) for f in value_f]),
+                               d_pose=np.array([[_assemble_global(f, comm) for f in row]
+                                                for row in dq_f]).reshape(n, -1),
                                d_displacement=vecs[:n], residual_d_pose=vecs[n:])
 
     def _compile_border(self, quantities, unknowns):
@@ -369,9 +366,9 @@ class RigidWheelContact:
 
     def _assemble(self) -> WheelForces:
         comm = self.problem.comm
-        f = np.array([comm.allreduce(fem.assemble_scalar(F), op=MPI.SUM) for F in self._force_forms])
-        m = comm.allreduce(fem.assemble_scalar(self._moment_form), op=MPI.SUM)
-        a = comm.allreduce(fem.assemble_scalar(self._area_form), op=MPI.SUM)
+        f = np.array([_assemble_global(F, comm) for F in self._force_forms])
+        m = _assemble_global(self._moment_form, comm)
+        a = _assemble_global(self._area_form, comm)
         return WheelForces(force=f, moment=float(m), area=float(a), max_penetration=self.max_penetration())
 
     def max_penetration(self) -> float:
@@ -404,6 +401,11 @@ class RigidWheelContact:
         bs = self.gdim
         u = self.problem.u.x.array.reshape(-1, bs)[self._surf_dofs]
         return self._surf_X + u
+
+
+def _assemble_global(form, comm) -> float:
+    """A scalar form summed over the ranks of ``comm``."""
+    return float(comm.allreduce(fem.assemble_scalar(form), op=MPI.SUM))
 
 
 def _contact_cell_size(msh, facet_tags, ids) -> float:
