@@ -105,6 +105,7 @@ def run(comm, accuracy, mat, d, b, gamma, mu, s_end=0.1, linear_solver="auto", v
             "steps": len(ind.steps), "newton_iterations": its_before + ind.newton_iterations, "cuts": ind.cuts,
             "time_s": comm.allreduce(time.perf_counter() - t0, op=MPI.MAX),   # this sitting
             "steps_from_checkpoint": steps_before, "QV": q,
+            "contact_stiffness": (ind.contact.kappa, ind.contact.k_t),
             "curve": [(st.sinkage, st.QV) for st in ind.steps]}
 
 
