@@ -4,6 +4,10 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import os
+import pathlib
+import subprocess
+import sys
 
 import numpy as np
 
@@ -15,6 +19,20 @@ def dump_json(comm, path: str | None, payload: dict) -> None:
     if comm.rank == 0 and path:
         with open(path, "w") as f:
             json.dump({**payload, "ranks": comm.size}, f, indent=1, default=float)
+
+
+def run_in_mpirun(ranks: int, argv: list[str], out: pathlib.Path) -> dict | None:
+    """Run ``python argv`` under ``mpirun -n ranks`` (a process of its own: its wall time and memory
+    alone) and return the JSON it wrote to ``out`` (then removed), or ``None`` after a message
+    when it failed."""
+    done = subprocess.run(["mpirun", "-n", str(ranks), sys.executable, *argv],
+                          env=os.environ | {"OMPI_MCA_rmaps_base_oversubscribe": "1"})
+    if done.returncode != 0 or not out.exists():
+        print(f"  run failed (exit status {done.returncode}); continuing", flush=True)
+        return None
+    run = json.loads(out.read_text())
+    out.unlink()
+    return run
 
 
 def add_volumetric_strain(parser: argparse.ArgumentParser,

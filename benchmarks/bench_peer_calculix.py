@@ -284,6 +284,7 @@ def have(runs, code, n, par, strain) -> dict | None:
 
 
 def sweep(args) -> int:
+    from _bench import run_in_mpirun
     for n in args.refinement:
         for strain in args.volumetric_strain:
             for ranks in args.ranks:
@@ -291,14 +292,10 @@ def sweep(args) -> int:
                     continue
                 print(f"rollsim, {n:g} elements / d, {strain}, {ranks} rank(s) ...", flush=True)
                 one = args.results.parent / f".peer-{n:g}-{strain}-{ranks}.json"
-                cmd = ["mpirun", "-n", str(ranks), sys.executable, __file__, "--one", "--refinement", f"{n:g}",
-                       "--volumetric-strain", strain, "--results", str(one)]
-                done = subprocess.run(cmd, env=os.environ | {"OMPI_MCA_rmaps_base_oversubscribe": "1"})
-                if done.returncode != 0 or not one.exists():
-                    print(f"  run failed (exit status {done.returncode}); continuing", flush=True)
+                run = run_in_mpirun(ranks, [__file__, "--one", "--refinement", f"{n:g}",
+                                            "--volumetric-strain", strain, "--results", str(one)], one)
+                if run is None:
                     continue
-                run = json.loads(one.read_text())
-                one.unlink()
                 save(args.results, run)
                 print(f"  {run['status']}: Q_V {run['QV']}, {run['time_s']:.0f} s", flush=True)
         ccx = find_calculix()
@@ -344,9 +341,24 @@ def report(args) -> int:
         print(f"| {code} | {n:g} | {strain} | {r['cells']} | {r['dofs']} | " + " | ".join(q) +
               f" | {r['steps']} | {r['iterations']} | " +
               " | ".join(f"{rr[p]['time_s']:.0f} s" if p in rr else "" for p in pars) + " |")
+    ref = max((r for r in runs if r["code"] == "rollsim" and r["volumetric_strain"] == "cell-average"),
+              key=lambda r: r["refinement"], default=None)
+    if ref is not None:
+        levels = sorted({k[0] for k in keys})
+        print(f"\nError of Q_V at s/d = {' / '.join(f'{k:g}' for k in READ)} against rollsim's B-bar at "
+              f"{ref['refinement']:g} elements / d (its finest level)\n")
+        print("| code | strain / element | " + " | ".join(f"{n:g} / d" for n in levels) + " |")
+        print("|---" * (2 + len(levels)) + "|")
+        for code, strain in sorted({(k[1], k[2]) for k in keys}):
+            cells = []
+            for n in levels:
+                r = have(runs, code, n, min(pars), strain)
+                cells.append(" / ".join(f"{100 * (r['QV'][f'{k:g}'] / ref['QV'][f'{k:g}'] - 1):+.1f} %" for k in READ)
+                             if r and r is not ref else "")
+            print(f"| {code} | {strain} | " + " | ".join(cells) + " |")
     print()
     for code, strain in sorted({(k[1], k[2]) for k in keys}):
-        print(f"{code} ({strain}), extrapolated from its three finest levels: " + extrapolated(
+        print(f"- {code} ({strain}), extrapolated from its three finest levels: " + extrapolated(
             [r for r in runs if (r["code"], r["volumetric_strain"], r["parallel"]) == (code, strain, min(pars))]))
     return 0
 

@@ -37,9 +37,10 @@ import os
 import pathlib
 import pstats
 import resource
-import subprocess
 import sys
 import time
+
+from _bench import run_in_mpirun
 
 HERE = pathlib.Path(__file__).resolve().parent
 RESULTS = HERE / "results"
@@ -124,16 +125,12 @@ def sweep(args) -> int:
                     continue
                 print(f"{scene}, {level_name(n)} elements / d, {ranks} rank(s) ...", flush=True)
                 one = args.results / f".{scene}-{n:g}-{ranks}.json"
-                cmd = ["mpirun", "-n", str(ranks), sys.executable, str(HERE / "bench_speed_accuracy.py"),
-                       "--one", scene, "--refinement", f"{n:g}", "--out", str(one)]
+                argv = [str(HERE / "bench_speed_accuracy.py"), "--one", scene, "--refinement", f"{n:g}", "--out", str(one)]
                 if args.volumetric_strain:
-                    cmd += ["--volumetric-strain", args.volumetric_strain]
-                done = subprocess.run(cmd, env=os.environ | {"OMPI_MCA_rmaps_base_oversubscribe": "1"})
-                if done.returncode != 0 or not one.exists():
-                    print(f"  run failed (exit status {done.returncode}); continuing", flush=True)
+                    argv += ["--volumetric-strain", args.volumetric_strain]
+                run = run_in_mpirun(ranks, argv, one)
+                if run is None:
                     continue
-                run = json.loads(one.read_text())
-                one.unlink()
                 path.write_text(json.dumps({"runs": load_results(path) + [run]}, indent=1))
                 print(f"  {run['status']}: value {run['value']}, {run['dofs']} dofs, {run['time_s']:.0f} s, "
                       f"{run['peak_memory_mb']:.0f} MB", flush=True)
