@@ -52,6 +52,8 @@ READ = (0.02, 0.05)                         # s/d of the readings
 STRAINS = ("cell-average", "pointwise")
 WHEEL_SECTOR = 40.0                         # deg of wheel rim modelled in CalculiX (contact: < 27 deg at s/d 0.05)
 FACET_DEG = 1.0                             # deg per wheel facet along the rim
+SYMMETRY_FACTOR = 4                         # quarter model: whole-wheel force / modelled part
+CCX_TIME_LIMIT = 4 * 3600.0                 # s: a CalculiX run stopped after this is recorded as failed
 
 
 # ---------------------------------------------------------------------------------------------- rollsim
@@ -90,8 +92,8 @@ def soil_mesh(refinement: float, msh_path: pathlib.Path):
         boundaries = {}
         for dim, tag in gmsh.model.getPhysicalGroups(2):
             name = gmsh.model.getPhysicalName(dim, tag)
-            ids = [gmsh.model.mesh.getNodesForPhysicalGroup(dim, tag)[0]]
-            boundaries[name] = np.unique(index[np.concatenate(ids).astype(int)])
+            on_group = gmsh.model.mesh.getNodesForPhysicalGroup(dim, tag)[0]
+            boundaries[name] = np.unique(index[on_group.astype(int)])
     finally:
         gmsh.finalize()
     x = xyz.reshape(-1, 3)
@@ -123,10 +125,10 @@ def quadratic_tets(x: np.ndarray, tets: np.ndarray) -> tuple[np.ndarray, np.ndar
     return np.vstack([x, np.array(extra)]), conn, mids
 
 
-def wheel_shell(first_node: int, first_element: int, thickness: float) -> tuple[np.ndarray, np.ndarray]:
+def wheel_shell(first_node: int, thickness: float) -> tuple[np.ndarray, np.ndarray]:
     """One layer of C3D8 bricks under the rim of the quarter wheel (centre (0, 0, d/2), axle along
     y, rim from the bottom forward by WHEEL_SECTOR deg, y from 0 to b/2 with the fillet): nodes (N,
-    3) and connectivity (M, 8) numbered from the given ids, face S1 on the wheel surface."""
+    3) and connectivity (M, 8) with node ids from ``first_node`` on, face S1 on the wheel surface."""
     r = D / 2
     flat = np.linspace(0.0, B / 2 - FILLET, 9)
     beta = np.linspace(0.0, np.pi / 2, 9)[1:]
@@ -171,7 +173,7 @@ def calculix_deck(refinement: float, contact_stiffness: tuple[float, float], wor
         s = set(corners.tolist())
         return np.array(sorted(s | {m for (i, j), m in mids.items() if i in s and j in s}))
 
-    wheel_xyz, bricks = wheel_shell(len(nodes), len(conn), thickness=0.05 * D)
+    wheel_xyz, bricks = wheel_shell(len(nodes), thickness=0.05 * D)
     out = ["** rollsim peer benchmark: rigid cylinder on a von Mises block (quarter model)", "*NODE, NSET=NALL"]
     out += [f"{i + 1}, {p[0]:.12g}, {p[1]:.12g}, {p[2]:.12g}" for i, p in enumerate(nodes)]
     out += [f"{len(nodes) + i + 1}, {p[0]:.12g}, {p[1]:.12g}, {p[2]:.12g}" for i, p in enumerate(wheel_xyz)]
@@ -233,6 +235,8 @@ def reaction_history(dat: str) -> list[tuple[float, float]]:
 
 
 def calculix_run(ccx: str, refinement: float, threads: int, contact_stiffness, keep: pathlib.Path | None) -> dict:
+    """Write the deck at ``refinement``, run ``ccx`` on ``threads`` threads and read Q_V at the
+    readings, increments, iterations and wall time (working files in ``keep``, else removed)."""
     workdir = pathlib.Path(tempfile.mkdtemp(prefix="rollsim-ccx-")) if keep is None else keep
     workdir.mkdir(parents=True, exist_ok=True)
     try:
@@ -240,7 +244,11 @@ def calculix_run(ccx: str, refinement: float, threads: int, contact_stiffness, k
         env = os.environ | {"OMP_NUM_THREADS": str(threads), "CCX_NPROC_EQUATION_SOLVER": str(threads),
                             "CCX_NPROC_RESULTS": str(threads), "CCX_NPROC_STIFFNESS": str(threads)}
         t0 = time.perf_counter()
-        done = subprocess.run([ccx, "-i", "indent"], cwd=workdir, env=env, capture_output=True, text=True)
+        try:
+            done = subprocess.run([ccx, "-i", "indent"], cwd=workdir, env=env, capture_output=True, text=True,
+                                  timeout=CCX_TIME_LIMIT)
+        except subprocess.TimeoutExpired as err:
+            done = subprocess.CompletedProcess(err.cmd, -1, "", f"stopped after {CCX_TIME_LIMIT:.0f} s")
         wall = time.perf_counter() - t0
         (workdir / "ccx.log").write_text(done.stdout + done.stderr)
         dat = (workdir / "indent.dat").read_text() if (workdir / "indent.dat").exists() else ""
@@ -255,14 +263,14 @@ def calculix_run(ccx: str, refinement: float, threads: int, contact_stiffness, k
             s = lo + (t - k) * (READ[k] - lo)
             for r in READ:
                 if abs(s - r) < 1e-6:
-                    qv[f"{r:g}"] = -4.0 * rf
+                    qv[f"{r:g}"] = -SYMMETRY_FACTOR * rf
         ok = done.returncode == 0 and len(qv) == len(READ)
         status = "ok" if ok else f"failed: exit {done.returncode}, {(done.stdout + done.stderr).strip()[-200:]}"
         return {"code": "calculix", "refinement": refinement, "parallel": threads, "volumetric_strain": "C3D10",
                 "status": status, **sizes, "steps": len(incs),
                 "iterations": sum(int(r[3]) for r in incs), "cuts": sum(int(r[2]) - 1 for r in incs),
                 "time_s": wall, "QV": qv, "contact_stiffness": list(contact_stiffness),
-                "curve": [(t, -4.0 * rf) for t, rf in history]}
+                "curve": [(t, -SYMMETRY_FACTOR * rf) for t, rf in history]}
     finally:
         if keep is None:
             shutil.rmtree(workdir, ignore_errors=True)

@@ -54,7 +54,7 @@ def test_deck_contact_faces_and_wheel_facets(peer, tmp_path):
     for e, f in faces:                                  # each named face lies on the soil surface z = 0
         corners = tets[int(e) - 1][list(peer.TET_FACES[int(f) - 1])]
         assert np.allclose(x[corners, 2], 0.0)
-    wheel_xyz, bricks = peer.wheel_shell(0, 0, thickness=0.05 * peer.D)
+    wheel_xyz, bricks = peer.wheel_shell(0, thickness=0.05 * peer.D)
     a, b, c = (wheel_xyz[bricks[:, k]] - wheel_xyz[bricks[:, 0]] for k in (1, 3, 4))
     assert (np.einsum("ij,ij->i", np.cross(a, b), c) > 0).all()     # positive bricks: S1 faces out of each
     wheel = CylinderWheel(peer.D, peer.B, peer.FILLET)
