@@ -165,7 +165,9 @@ def _lines(values, per_line: int = 16) -> str:
 
 
 def calculix_deck(refinement: float, contact_stiffness: tuple[float, float], workdir: pathlib.Path) -> dict:
-    """Write ``workdir/indent.inp`` for the quarter block at ``refinement``; returns the mesh sizes."""
+    """Write ``workdir/indent.inp`` for the quarter block at ``refinement`` (supports: rollsim's own
+    normal-displacement conditions per boundary); returns the mesh sizes."""
+    from rollsim.solver.indentation import _NORMAL_COMPONENT as NORMAL_COMPONENT
     x, tets, boundaries = soil_mesh(refinement, workdir / "soil.msh")
     nodes, conn, mids = quadratic_tets(x, tets)
 
@@ -181,7 +183,8 @@ def calculix_deck(refinement: float, contact_stiffness: tuple[float, float], wor
     out += [f"{e + 1}, " + ", ".join(str(n + 1) for n in c) for e, c in enumerate(conn)]
     out += ["*ELEMENT, TYPE=C3D8, ELSET=WHEEL"]
     out += [f"{len(conn) + e + 1}, " + ", ".join(str(n + 1) for n in c) for e, c in enumerate(bricks)]
-    for name, dof in (("symmetry_x", 1), ("front", 1), ("symmetry_y", 2), ("side", 2), ("bottom", 3)):
+    supports = [(name, comp + 1) for name, comp in NORMAL_COMPONENT[3].items() if name in boundaries]
+    for name, _ in supports:
         out += [f"*NSET, NSET={name.upper()}", _lines(with_mids(boundaries[name]) + 1)]
     out += ["*NSET, NSET=WHEELNODES", _lines(len(nodes) + 1 + np.arange(len(wheel_xyz)))]
     # slave: the soil's top faces in reach of the wheel sector
@@ -202,8 +205,7 @@ def calculix_deck(refinement: float, contact_stiffness: tuple[float, float], wor
             "*CONTACT PAIR, INTERACTION=WHEELSOIL, TYPE=SURFACE TO SURFACE", "SOILTOP, RIM",
             "*SURFACE INTERACTION, NAME=WHEELSOIL", "*SURFACE BEHAVIOR, PRESSURE-OVERCLOSURE=LINEAR",
             f"{kappa:.12g}", "*FRICTION", f"{MU}, {k_t:.12g}",
-            "*BOUNDARY", "SYMMETRY_X, 1, 1", "FRONT, 1, 1", "SYMMETRY_Y, 2, 2", "SIDE, 2, 2", "BOTTOM, 3, 3",
-            "WHEELNODES, 1, 2"]
+            "*BOUNDARY", *(f"{name.upper()}, {dof}, {dof}" for name, dof in supports), "WHEELNODES, 1, 2"]
     s_prev = 0.0
     for s in READ:
         inc = STEP / (s - s_prev)
