@@ -58,14 +58,15 @@ def case_soil(n):
 
 
 def run(comm, accuracy, mat, d, b, gamma, mu, s_end=0.1, linear_solver="auto", verbose=False, fixed_steps=0,
-        volumetric_strain=DEFAULT_VOLUMETRIC_STRAIN, checkpoint=None, petsc_options=None, step=0.0):
-    """One push on the ``accuracy`` preset (or that many elements per d); ``step`` (s/d, > 0): every step that long (a failed step is cut inside it);
+        volumetric_strain=DEFAULT_VOLUMETRIC_STRAIN, checkpoint=None, petsc_options=None, step=0.0, block=None):
+    """One push on the ``accuracy`` preset (or that many elements per d), on ``block`` (a ``SoilBlock``;
+    default the reference quarter block); ``step`` (s/d, > 0): every step that long (a failed step is cut inside it);
     with ``checkpoint`` (a directory) the state is written at every reading stop and a run finding
     one there continues from it (same mesh and path, any number of ranks)."""
     t0 = time.perf_counter()
     mesh = (MeshOptions.from_accuracy(d, accuracy) if accuracy in ACCURACY_REFINEMENT
             else MeshOptions.from_refinement(d, float(accuracy)))
-    tm = build_soil_block(comm, indentation_block(d), mesh)
+    tm = build_soil_block(comm, block or indentation_block(d), mesh)
     ind = WheelIndentation(tm, CylinderWheel(d, b, b / 12), mat, gamma=gamma, friction=mu,
                            linear_solver=linear_solver, volumetric_strain=volumetric_strain,
                            petsc_options=petsc_options)

@@ -18,13 +18,16 @@ one-contact-length window does not average out the coarse levels' element-passin
 it passed is shown).  For each strain it is extrapolated from the three finest levels (Richardson, with
 the observed order from the generalised three-level formula of Celik et al., J. Fluids Eng. 130
 (2008) 078001); a level's error is against that value.  Prints a Markdown table (``--table``
-rebuilds it from saved JSON files without solving).
+rebuilds it from saved JSON files without solving).  ``--relaxation-length`` (mm) runs the
+levels with a Duvaut-Lions regularisation (kept apart in the table).  An existing ``--out`` file is
+resumed: the levels it holds are not solved again.
 """
 from __future__ import annotations
 
 import argparse
 import json
 import math
+import pathlib
 
 from mpi4py import MPI
 
@@ -46,6 +49,12 @@ def sinkage(r: dict) -> float | None:
     return st["sinkage_mean"] if st else None
 
 
+def formulation(r: dict) -> str:
+    """The strain of a run, with its relaxation length when it had one."""
+    ell = r.get("relaxation_length_mm", 0.0)
+    return f"{r['strain']}, {ell:g} mm relaxation" if ell else r["strain"]
+
+
 def table(results: list[dict]) -> str:
     """Markdown table of the levels of each (soil, strain): sinkage, change against the next
     coarser level, error against the extrapolated value, cost."""
@@ -53,8 +62,8 @@ def table(results: list[dict]) -> str:
              "| change vs coarser | error vs extrapolated | steps | Newton its | cuts | wall time (ranks) |",
              "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     notes = []
-    for key in sorted({(r["soil"], r["strain"]) for r in results}):
-        rows = sorted((r for r in results if (r["soil"], r["strain"]) == key and sinkage(r)),
+    for key in sorted({(r["soil"], formulation(r)) for r in results}):
+        rows = sorted((r for r in results if (r["soil"], formulation(r)) == key and sinkage(r)),
                       key=lambda r: -r["refinement"])
         fit = None
         if len(rows) >= 3:
@@ -83,6 +92,8 @@ def main(argv=None) -> int:
     p.add_argument("--soil", choices=sorted(SOILS), default="clay")
     p.add_argument("--refinement", type=float, nargs="+", default=[8.0, 10.0, 12.0])
     p.add_argument("--volumetric-strain", choices=VOLUMETRIC_STRAINS, nargs="+", default=list(VOLUMETRIC_STRAINS))
+    p.add_argument("--relaxation-length", type=float, default=0.0,
+                   help="Duvaut-Lions relaxation length of the soil, mm of travel (0: off)")
     p.add_argument("--table", nargs="+", metavar="JSON", help="print the table of saved results and stop")
     p.add_argument("--out")
     args = p.parse_args(argv)
@@ -93,21 +104,29 @@ def main(argv=None) -> int:
             print(table(results))
         return 0
     results = []
+    if args.out and pathlib.Path(args.out).exists():
+        results = json.loads(pathlib.Path(args.out).read_text())["results"]
     for strain in args.volumetric_strain:
         for n in args.refinement:
+            run = {"soil": args.soil, "strain": strain, "refinement": n, "relaxation_length_mm": args.relaxation_length}
+            if any(all(r.get(k, 0.0) == v for k, v in run.items()) for r in results):
+                if comm.rank == 0:
+                    print(f"{formulation(run)}, {n:g} elements / d: in {args.out}, not solved again", flush=True)
+                continue
             level = protocols.parser().parse_args(SOILS[args.soil] + BLOCK + [
-                "--refinement", str(n), "--volumetric-strain", strain, "--skip-continuous"])
+                "--refinement", str(n), "--volumetric-strain", strain, "--skip-continuous",
+                "--relaxation-length", str(args.relaxation_length)])
             cl = protocols.constant_load(comm, level.mu[0], level)
             cl.pop("curve")
-            results.append({"soil": args.soil, "strain": strain, "refinement": n, "ranks": comm.size, **cl})
+            results.append({**run, "ranks": comm.size, **cl})
             if comm.rank == 0:
                 s = sinkage(cl)
-                print(f"{args.soil}, {strain}, {n:g} elements / d: {cl['status']}, steady {cl.get('steady')}, "
+                print(f"{args.soil}, {formulation(run)}, {n:g} elements / d: {cl['status']}, steady {cl.get('steady')}, "
                       f"s = {1e3 * (s if s else math.nan):.2f} mm, {cl['dofs']} dofs, "
                       f"{cl['newton_iterations']} Newton its, {cl['time_s']:.0f} s", flush=True)
             dump_json(comm, args.out, {"args": vars(args), "results": results})
     if comm.rank == 0:
-        print(table([{**r, "ranks": comm.size} for r in results]))
+        print(table(results))
     return 0
 
 

@@ -47,7 +47,8 @@ D, B, GAMMA = 1.524, 0.4572, 20e3
 
 
 def _block(comm, args, stiff, length=None):
-    blk = rolling_block(D, length=length or args.length, half_width=args.half_width, depth=args.depth, stiff_length=stiff)
+    blk = rolling_block(D, length=length or args.length, half_width=args.half_width, depth=args.depth, stiff_length=stiff,
+                        path_half_width=args.path_half_width, refined_depth=args.refined_depth)
     mesh = (MeshOptions.from_refinement(D, args.refinement) if args.refinement
             else MeshOptions.from_accuracy(D, args.accuracy))
     return build_soil_block(comm, blk, mesh)
@@ -64,12 +65,13 @@ def soil(args):
 def constant_load(comm, mu, args):
     t0 = time.perf_counter()
     mat = soil(args)
-    roll = WheelRolling(_block(comm, args, args.stiff), CylinderWheel(D, B, B / 12), mat, gamma=GAMMA, friction=mu,
+    tm = _block(comm, args, args.stiff)
+    roll = WheelRolling(tm, CylinderWheel(D, B, B / 12), mat, gamma=GAMMA, friction=mu,
                         volumetric_strain=args.volumetric_strain,
                         relaxation_length=1e-3 * args.relaxation_length)
     roll.gravity_step()
     load = args.load * 1e3
-    out = {"mu": mu, "dofs": roll.n_dofs, "status": "ok"}
+    out = {"mu": mu, "cells": tm.stats.cells, "dofs": roll.n_dofs, "status": "ok"}
     try:
         res = roll.press_to_load(load, 0.25 * D)
         if res.status != "ok":
@@ -168,6 +170,8 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--half-width", type=float, default=0.8)
     p.add_argument("--depth", type=float, default=0.8)
     p.add_argument("--stiff", type=float, default=0.5, help="stiff start zone length, d")
+    p.add_argument("--path-half-width", type=float, default=0.3, help="half width of the refined strip, d")
+    p.add_argument("--refined-depth", type=float, default=0.4, help="depth of the refined strip, d")
     p.add_argument("--cl-travel", type=float, default=1.3, help="constant-load travel limit, d")
     p.add_argument("--steady-rtol", type=float, default=0.02)
     p.add_argument("--steady-min-travel", type=float, default=STEADY_MIN_TRAVEL,

@@ -1,0 +1,58 @@
+"""The long benchmark sweeps keep what they ran: a level or block already in the results file is
+not solved again, and their tables compare like with like (no solving here)."""
+from __future__ import annotations
+
+import json
+import pathlib
+
+import pytest
+
+BENCHMARKS = pathlib.Path(__file__).parents[1] / "benchmarks"
+
+
+@pytest.fixture()
+def benchmarks(monkeypatch):
+    monkeypatch.syspath_prepend(str(BENCHMARKS))
+    import bench_block_size
+    import bench_rolling_convergence
+    return bench_rolling_convergence, bench_block_size
+
+
+def _level(refinement, sinkage, **extra):
+    return {"soil": "case5", "strain": "cell-average", "refinement": refinement, "ranks": 1, "dofs": 100,
+            "steady": True, "steps": 10, "newton_iterations": 50, "cuts": 0, "time_s": 1.0,
+            "settled": {"sinkage_mean": sinkage, "sinkage_std": 1e-4}, **extra}
+
+
+@pytest.mark.serial
+def test_rolling_convergence_resumes_and_keeps_regularised_runs_apart(benchmarks, tmp_path, monkeypatch, capsys):
+    convergence, _ = benchmarks
+    out = tmp_path / "levels.json"
+    out.write_text(json.dumps({"results": [_level(6.0, 0.018, relaxation_length_mm=0.0),
+                                           _level(6.0, 0.0177, relaxation_length_mm=0.5)]}))
+
+    def must_not_solve(*args, **kwargs):
+        raise AssertionError("a saved level was solved again")
+
+    monkeypatch.setattr(convergence.protocols, "constant_load", must_not_solve)
+    assert convergence.main(["--soil", "case5", "--refinement", "6", "--volumetric-strain", "cell-average",
+                             "--relaxation-length", "0.5", "--out", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "not solved again" in text
+    assert "| case5 | cell-average | 6 |" in text and "| case5 | cell-average, 0.5 mm relaxation | 6 |" in text
+    assert len(json.loads(out.read_text())["results"]) == 2
+
+
+@pytest.mark.serial
+def test_block_size_table_and_bad_block(benchmarks, tmp_path, capsys):
+    _, block_size = benchmarks
+    runs = [{"scene": "rolling-case5", "refinement": 8.0, "block": [2.6, w, w, 0.3, 0.4], "ranks": 1,
+             "status": "ok", "dofs": dofs, "steps": 60, "newton_iterations": 800, "time_s": 300.0,
+             "value": s, "std": 5e-4} for w, dofs, s in ((0.8, 12822, 0.015), (2.2, 17784, 0.016))]
+    results = tmp_path / "block_size.json"
+    results.write_text(json.dumps({"runs": runs}))
+    assert block_size.main(["--table", "--results", str(results)]) == 0
+    rows = [line for line in capsys.readouterr().out.splitlines() if line.startswith("| rolling-case5")]
+    assert "-6.2 %" in rows[0] and rows[1].count("|") == 9 and "%" not in rows[1]
+    with pytest.raises(SystemExit, match="--block"):
+        block_size.parse_block("rolling-case5", "2.6:0.8:0.8")
