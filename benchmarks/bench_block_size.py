@@ -62,13 +62,12 @@ def run(comm, scene: str, refinement: float, block: tuple[float, ...]) -> dict:
         out = {"value": readings["0.08"], "readings": readings, "cells": res["cells"]}
     else:
         import bench_rolling_convergence as convergence
-        import bench_rolling_protocols as protocols
         length, half_width, depth, strip, strip_depth = block
-        args = protocols.parser().parse_args(convergence.SOILS["case5"] + [
+        args = convergence.level_args("case5", refinement, "pointwise", block=[
             "--length", f"{length:g}", "--half-width", f"{half_width:g}", "--depth", f"{depth:g}",
             "--stiff", "0.5", "--cl-travel", "1.5", "--path-half-width", f"{strip:g}",
-            "--refined-depth", f"{strip_depth:g}", "--refinement", f"{refinement:g}", "--skip-continuous"])
-        res = protocols.constant_load(comm, args.mu[0], args)
+            "--refined-depth", f"{strip_depth:g}"])
+        res = convergence.protocols.constant_load(comm, args.mu[0], args)
         res.pop("curve")
         out = {"value": convergence.sinkage(res), "std": (res.get("settled") or {}).get("sinkage_std")}
     return {"scene": scene, "refinement": refinement, "block": list(block), "ranks": comm.size,

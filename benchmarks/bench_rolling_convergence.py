@@ -41,6 +41,15 @@ SOILS = {"clay": ["--yield-stress", "300", "--load", "100", "--mu", "0"],
 BLOCK = ["--length", "2.6", "--half-width", "0.8", "--depth", "0.8", "--stiff", "0.5", "--cl-travel", "1.5"]
 
 
+def level_args(soil: str, refinement: float, strain: str, relaxation_length: float = 0.0,
+               block: list[str] = BLOCK):
+    """The constant-load run of ``soil`` at ``refinement`` elements per d on ``block`` (arguments of
+    ``bench_rolling_protocols.py``), as parsed arguments."""
+    return protocols.parser().parse_args(SOILS[soil] + block + [
+        "--refinement", f"{refinement:g}", "--volumetric-strain", strain, "--skip-continuous",
+        "--relaxation-length", f"{relaxation_length:g}"])
+
+
 def sinkage(r: dict) -> float | None:
     """The scored sinkage of a run (m): the mean over the rolled steps from 1 d of travel on (defined
     whether or not the steady-state test passed; the detection window is too short to average the
@@ -113,9 +122,7 @@ def main(argv=None) -> int:
                 if comm.rank == 0:
                     print(f"{formulation(run)}, {n:g} elements / d: in {args.out}, not solved again", flush=True)
                 continue
-            level = protocols.parser().parse_args(SOILS[args.soil] + BLOCK + [
-                "--refinement", str(n), "--volumetric-strain", strain, "--skip-continuous",
-                "--relaxation-length", str(args.relaxation_length)])
+            level = level_args(args.soil, n, strain, args.relaxation_length)
             cl = protocols.constant_load(comm, level.mu[0], level)
             cl.pop("curve")
             results.append({**run, "ranks": comm.size, **cl})

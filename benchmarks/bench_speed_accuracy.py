@@ -96,10 +96,8 @@ def run_scene(comm, scene: str, refinement: float, volumetric_strain: str | None
         out = {"value": readings[f"{S_READ[-1]:g}"], "readings": readings, "linear_solves": res["newton_iterations"]}
     else:
         import bench_rolling_convergence as convergence
-        import bench_rolling_protocols as protocols
-        args = protocols.parser().parse_args(convergence.SOILS["case5"] + convergence.BLOCK + [
-            "--refinement", str(refinement), "--volumetric-strain", strain, "--skip-continuous"])
-        res = protocols.constant_load(comm, args.mu[0], args)
+        args = convergence.level_args("case5", refinement, strain)
+        res = convergence.protocols.constant_load(comm, args.mu[0], args)
         res.pop("curve")
         out = {"value": convergence.sinkage(res), "steady": res.get("steady"),
                "linear_solves": res.get("linear_solves", res["newton_iterations"])}
