@@ -41,7 +41,7 @@ def parse_block(scene: str, text: str) -> tuple[float, ...]:
     except ValueError:
         values = ()
     if len(values) != BLOCK_FIELDS[scene] or not all(v > 0 for v in values):
-        raise SystemExit(f"--block: {text!r} is not {BLOCK_FIELDS[scene]} positive numbers separated by ':' "
+        raise ValueError(f"--block: {text!r} is not {BLOCK_FIELDS[scene]} positive numbers separated by ':' "
                          f"for {scene}")
     return values
 
@@ -108,7 +108,10 @@ def main(argv=None) -> int:
     p.add_argument("--table", action="store_true", help="print the table of the saved runs and stop")
     args = p.parse_args(argv)
     comm = MPI.COMM_WORLD
-    blocks = [parse_block(args.scene, b) for b in args.block]
+    try:
+        blocks = [parse_block(args.scene, b) for b in args.block]
+    except ValueError as err:
+        p.error(str(err))
     runs = json.loads(args.results.read_text())["runs"] if args.results.exists() else []
     for block in [] if args.table else blocks:
         if any(r["scene"] == args.scene and r["refinement"] == args.refinement and tuple(r["block"]) == block

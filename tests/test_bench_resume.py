@@ -54,5 +54,8 @@ def test_block_size_table_and_bad_block(benchmarks, tmp_path, capsys):
     assert block_size.main(["--table", "--results", str(results)]) == 0
     rows = [line for line in capsys.readouterr().out.splitlines() if line.startswith("| rolling-case5")]
     assert "-6.2 %" in rows[0] and rows[1].count("|") == 9 and "%" not in rows[1]
-    with pytest.raises(SystemExit, match="--block"):
+    with pytest.raises(ValueError, match="--block"):
         block_size.parse_block("rolling-case5", "2.6:0.8:0.8")
+    with pytest.raises(SystemExit) as exit_status:
+        block_size.main(["--block", "2.6:0.8", "--results", str(results)])
+    assert exit_status.value.code == 2
