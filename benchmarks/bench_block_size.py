@@ -16,8 +16,8 @@ Scenes (as ``bench_speed_accuracy.py``):
   last two: the refined strip along the wheel's path).
 
 Every run is kept in ``--results`` (one JSON file); a (scene, level, block) found there is not
-run again.  The table gives each block's cells, dofs, wall time and its answer against the largest
-block of the same scene and level.
+run again.  The table gives each block's dofs, Newton iterations, wall time and its answer against
+the largest block of the same scene and level.
 """
 from __future__ import annotations
 
@@ -27,6 +27,8 @@ import pathlib
 import time
 
 from mpi4py import MPI
+
+from _bench import dump_json
 
 HERE = pathlib.Path(__file__).resolve().parent
 RESULTS = HERE / "results" / "block_size.json"
@@ -120,9 +122,7 @@ def main(argv=None) -> int:
         if comm.rank == 0:
             print(f"{args.scene}, {args.refinement:g} elements / d, block {block} ...", flush=True)
         runs.append(run(comm, args.scene, args.refinement, block))
-        if comm.rank == 0:
-            args.results.parent.mkdir(parents=True, exist_ok=True)
-            args.results.write_text(json.dumps({"runs": runs}, indent=1))
+        dump_json(comm, str(args.results), {"runs": runs})
     if comm.rank == 0:
         print(table(runs))
     return 0
