@@ -261,7 +261,9 @@ def solve_load_path(problem, set_load: Callable[[float], None], control: StepCon
         log.debug("step %3d t=%.5f dt=%.3g its=%d plastic=%d apex=%d |F|: %s %s", len(history), t, dt,
                  rep.iterations, rep.counts.get("plastic", 0), rep.counts.get("apex", 0), norms,
                  " ".join(f"{k}={v:.6g}" for k, v in (data or {}).items() if isinstance(v, float)))
-        if rep.iterations <= control.easy_iterations and cuts == 0:
+        # an accepted Newton plateau had converged when it began: its repeats do not count
+        its = rep.iterations - getattr(rep, "plateau_repeats", 0)
+        if its <= control.easy_iterations and cuts == 0:
             dt = min(dt * control.grow, control.dt_max)
         cuts = 0
     return history

@@ -414,11 +414,12 @@ def test_step_cutting_and_clean_failure(comm):
 def test_newton_stops_at_a_residual_plateau(comm):
     """A residual that repeats itself (within 0.1 % of the value one or two iterations before, three
     iterations running: a flat plateau or a two-cycle) ends the Newton solve as DIVERGED_LOCAL_MIN,
-    so the stepper cuts at once instead of iterating to snes_max_it.  A slow steady fall and the
+    so the stepper cuts at once instead of iterating to snes_max_it, unless the plateau lies below
+    PLATEAU_RTOL of the internal-force norm: then it is accepted.  A slow steady fall and the
     erratic but converging history of a c = 0 footing step (recorded; basic line search) go on."""
     from petsc4py import PETSc
     from rollsim.solver import StripFooting, strip_footing_mesh
-    from rollsim.solver.problem import STAGNATION
+    from rollsim.solver.problem import PLATEAU_RTOL, STAGNATION
     pb = StripFooting(strip_footing_mesh(comm, 1.0, 1), von_mises_from_tresca(E, NU, C)).problem
 
     class Snes:
@@ -444,6 +445,15 @@ def test_newton_stops_at_a_residual_plateau(comm):
                3.37e2, 5.67e3, 3.51e3, 2.77e2, 4.53e2, 2.37e2, 3.74e2, 9.20e2, 6.08e1, 4.99e1, 7.91,
                7.39, 4.02e-1, 1.47e-2]
     assert local_min not in reasons(erratic)
+    # a plateau below PLATEAU_RTOL of the internal-force norm is accepted (the norm set by hand here:
+    # no residual was assembled), one above it is still cut
+    converged = PETSc.SNES.ConvergedReason.CONVERGED_FNORM_ABS
+    pb._force_scale = 1e5
+    assert PLATEAU_RTOL == 1e-3
+    assert reasons(plateau) == [iterating] * 5 + [converged] and pb._plateau == pytest.approx(41.99e-5)
+    assert reasons(cycle) == [iterating] * 6 + [local_min] and pb._plateau == 0.0
+    pb.plateau_rtol = 0.0                                           # acceptance switched off
+    assert reasons(plateau) == [iterating] * 5 + [local_min]
     pb.stagnation = (0, 0.0)                                        # switched off
     assert reasons(plateau) == [iterating] * 6
 

@@ -76,6 +76,8 @@ class ProtocolRun:
                                    volumetric_strain=model.volumetric_strain,
                                    relaxation_length=model.relaxation_length)
         self.rows: list[dict] = []
+        #: largest out-of-balance force left by an accepted Newton plateau, over that step's Q_V
+        self.plateau_share = 0.0
         self.tagged = self.wheel_run = self.writer = None
 
     def attach(self, tagged, wheel_run) -> None:
@@ -97,6 +99,9 @@ class ProtocolRun:
     def record(self, st, travel: float, field_time: float) -> None:
         """A converged step ``st``: its history row, its fields at ``field_time``, history.csv."""
         self.rows.append(history_row(st, self.d, travel, self.t_start))
+        residual = self.wheel_run.problem.plateau_residual       # N, modelled part; 0: converged fully
+        if residual and st.QV:
+            self.plateau_share = max(self.plateau_share, self.wheel_run.factor * residual / abs(st.QV))
         if self.writer is not None:
             self.writer.write(field_time)
         write_history(self.out, self.rows, self.comm)
@@ -150,6 +155,7 @@ class ProtocolRun:
                 "cells": self.tagged.stats.cells, "steps": len(self.rows),
                 "newton_iterations": run.newton_iterations,
                 "linear_solves": int(run.problem.timings["linear_solves"]), "step_cuts": run.cuts,
+                "newton_plateaus": {**run.problem.plateaus, "max_residual_over_QV": self.plateau_share},
                 "sinkage_m": last.get("sinkage_m", 0.0), "QV_N": last.get("QV_N", 0.0),
                 "QH_N": last.get("QH_N", 0.0), "max_QV_N": max((r["QV_N"] for r in self.rows), default=0.0),
                 **results, "model": self.model_summary(),
