@@ -14,8 +14,8 @@ control: elastic only, no plastic point), above_capacity (load control at 10x th
 reached at the sinkage limit: "exceeds capacity"), layers_30_1 / layers_1_30 (top 0.4 d with
 c_dp = 20 kPa over 600 kPa and the reverse, von Mises).
 
-Prints one row per case: outcome, sinkage reached, Q_V, steps, Newton iterations, cuts, plastic
-points, wall time, and the message on failure.
+Prints one row per case: outcome, sinkage reached, Q_V, steps, Newton iterations, cuts, Newton
+plateaus accepted, plastic points, wall time, and the message on failure.
 """
 from __future__ import annotations
 
@@ -78,7 +78,7 @@ def run_case(comm, case, args):
     last = ind.steps[-1] if ind.steps else None
     row.update(sinkage=ind.sinkage, QV=last.QV if last else 0.0, plastic=last.plastic if last else 0,
                steps=len(ind.steps), newton_iterations=ind.newton_iterations, cuts=ind.cuts,
-               time_s=comm.allreduce(time.perf_counter() - t0, op=MPI.MAX))
+               plateaus=ind.problem.plateaus["accepted"], time_s=comm.allreduce(time.perf_counter() - t0, op=MPI.MAX))
     return row
 
 
@@ -94,13 +94,13 @@ def main(argv=None) -> int:
     rows = []
     if comm.rank == 0:
         print(f"{'case':15s} {'outcome':17s} {'s/d':>7s} {'Q_V kN':>9s} {'plastic':>7s} {'steps':>5s} {'its':>5s} "
-              f"{'cuts':>4s} {'wall s':>7s}  message", flush=True)
+              f"{'cuts':>4s} {'plat.':>5s} {'wall s':>7s}  message", flush=True)
     for case in args.cases:
         r = run_case(comm, case, args)
         rows.append(r)
         if comm.rank == 0:
             print(f"{case:15s} {r['outcome']:17s} {r['sinkage'] / D:7.4f} {r['QV'] / 1e3:9.1f} {r['plastic']:7d} "
-                  f"{r['steps']:5d} {r['newton_iterations']:5d} {r['cuts']:4d} {r['time_s']:7.1f}  "
+                  f"{r['steps']:5d} {r['newton_iterations']:5d} {r['cuts']:4d} {r['plateaus']:5d} {r['time_s']:7.1f}  "
                   f"{r['message'][:160]}", flush=True)
     dump_json(comm, args.out, {"args": vars(args), "rows": rows})
     return 0
