@@ -206,9 +206,10 @@ def test_relaxation_converges_to_rate_independent_rolling(comm):
 
 def test_relaxation_lets_non_associated_sand_roll(comm, tmp_mpi_path):
     """Dense sand with non-associated flow (layered case 13: phi_dp = 61.6 deg, psi = 0): the
-    rate-independent press fails cleanly (near-singular tangent) and the summary names the remedy;
-    with relaxation lengths of 1 and 2 mm the wheel is pressed and rolls to the end, and Q_V changes
-    by less than 2 % between them."""
+    rate-independent press either fails cleanly (near-singular tangent; serially) and the summary
+    names the remedy, or gets through on accepted Newton plateaus (on 2 ranks: the partition
+    changes the path), which the summary then reports; with relaxation lengths of 1 and 2 mm the
+    wheel is pressed and rolls to the end, and Q_V changes by less than 2 % between them."""
     scene = parse_scene({"wheel": {"diameter": D, "width": B, "friction": 0.8},
                          "soil": {"gamma": GAMMA, "layers": [{"model": "drucker-prager", "E": 40e6, "nu": 0.35,
                                                               "phi_dp": 61.6, "c_dp": 18.5e3}]},
@@ -216,7 +217,10 @@ def test_relaxation_lets_non_associated_sand_roll(comm, tmp_mpi_path):
                          "model": {"accuracy": "fast"}})
     summary = run_scene(scene, tmp_mpi_path, comm, progress=False, write_fields=False, block=BLOCK,
                           initial_sinkage=0.01 * D)
-    assert summary["status"] == "failed" and "relaxation_length" in summary["reason"], summary["reason"]
+    if summary["status"] == "failed":
+        assert "relaxation_length" in summary["reason"], summary["reason"]
+    else:
+        assert summary["status"] == "ok" and summary["newton_plateaus"]["accepted"] > 0, summary
     sand = DruckerPrager(E=40e6, nu=0.35, phi_dp=math.radians(61.6), c_dp=18.5e3, dilation=0.0)
     one, two = (_rolled(comm, sand, L) for L in (1e-3, 2e-3))
     for st in (one, two):
