@@ -118,7 +118,9 @@ class WheelIndentation:
     :class:`~rollsim.solver.problem.PlasticityProblem`); ``relaxation_length`` (m, 0: off):
     Duvaut-Lions regularisation of the soil while the wheel sinks, with the sinkage as
     pseudo-time: a step that changes the sinkage by ``ds`` has ``r = ds / relaxation_length``
-    (see :func:`~rollsim.solver.return_map.duvaut_lions`; the gravity step stays rate-independent).
+    (see :func:`~rollsim.solver.return_map.duvaut_lions`; the gravity step stays rate-independent);
+    ``plateau_rtol``: Newton plateaus accepted below this fraction of the internal-force norm
+    (default :data:`~rollsim.solver.options.PLATEAU_RTOL`; 0: never).
     """
 
     def __init__(self, tagged, wheel, material, *, gamma: float = 0.0, K0: float | None = None,
@@ -126,7 +128,7 @@ class WheelIndentation:
                  petsc_options: dict | None = None, degree: int = 2, contact_ids=None,
                  quadrature_degree: int = 6, smoothing: float = 0.0, kinematics: str = "small-strain",
                  linear_solver: str = "auto", volumetric_strain: str = DEFAULT_VOLUMETRIC_STRAIN,
-                 relaxation_length: float = 0.0):
+                 relaxation_length: float = 0.0, plateau_rtol: float | None = None):
         self.relaxation_length = check_relaxation_length(relaxation_length)
         self.tagged = tagged
         msh = tagged.mesh
@@ -141,7 +143,7 @@ class WheelIndentation:
                                               petsc_options={**DEFAULT_PETSC_OPTIONS, **(petsc_options or {})},
                                               cell_tags=tagged.cell_tags if isinstance(material, dict) else None,
                                               kinematics=kinematics, linear_solver=linear_solver,
-                                              volumetric_strain=volumetric_strain)
+                                              volumetric_strain=volumetric_strain, plateau_rtol=plateau_rtol)
         V = pb.V
         fdim = msh.topology.dim - 1
         bcs = []

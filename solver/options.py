@@ -38,6 +38,15 @@ DEFAULT_REGULARISING_COHESION = 1.0e3
 #: Duvaut-Lions relaxation length (m of the wheel's path; ``[model] relaxation_length``); 0: off
 DEFAULT_RELAXATION_LENGTH = 0.0
 
+#: A Newton plateau (see :data:`rollsim.solver.problem.STAGNATION`) whose ``|F|`` is below this
+#: fraction of the internal-force norm (``PlasticityProblem.force_rtol``'s scale) is accepted as
+#: converged instead of cut (``[model] plateau_tolerance``; 0 switches the acceptance off).
+#: Frictional contact on a steep non-associated cone (phi_dp = 58.6 deg, psi = 0, mu = 0.8) leaves
+#: Newton on plateaus of 1e-6 to 1e-3 of that norm which no step cut lowers, so the run used to fail
+#: at s/d = 0.007.  The residual left is reported (``PlasticityProblem.plateaus``); its effect on
+#: Q_V is measured in docs, "Non-associated flow: Newton stalls".
+PLATEAU_RTOL = 1e-3
+
 
 def default_volumetric_strain(protocol: str) -> str:
     """The scene default of ``[model] volumetric_strain`` for a loading protocol: B-bar

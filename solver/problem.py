@@ -39,7 +39,8 @@ from petsc4py import PETSc
 from rollsim import compat
 from rollsim.log import get_logger
 
-from .options import DEFAULT_VOLUMETRIC_STRAIN, KINEMATICS, LINEAR_SOLVERS, VOLUMETRIC_STRAINS, check_choice
+from .options import (DEFAULT_VOLUMETRIC_STRAIN, KINEMATICS, LINEAR_SOLVERS, PLATEAU_RTOL, VOLUMETRIC_STRAINS,
+                      check_choice)
 from .return_map import (APEX, ELASTIC, PLASTIC, ReturnResult, duvaut_lions, elastic_stiffness, return_map,
                          yield_function)
 
@@ -61,9 +62,9 @@ DEFAULT_PETSC_OPTIONS = {
     "pc_factor_mat_solver_type": "mumps",
 }
 
-#: Newton stops (``DIVERGED_LOCAL_MIN``, so the stepper cuts the step; below :data:`PLATEAU_RTOL`
-#: it accepts the step instead) when ``|F|`` has repeated
-#: itself, within the relative ``tolerance`` of the value one or two iterations before (a flat
+#: Newton stops (``DIVERGED_LOCAL_MIN``, so the stepper cuts the step; below
+#: :data:`~rollsim.solver.options.PLATEAU_RTOL` it accepts the step instead) when ``|F|`` has
+#: repeated itself, within the relative ``tolerance`` of the value one or two iterations before (a flat
 #: plateau or a two-cycle), in ``iterations`` consecutive iterations: ``(iterations, tolerance)``;
 #: ``(0, 0)`` switches it off.  Non-associated Drucker-Prager sand (layered cases 13-15) stalls at
 #: flat plateaus, frictional contact cycles between two active sets; both used to iterate to
@@ -71,13 +72,6 @@ DEFAULT_PETSC_OPTIONS = {
 #: nor of 82 of the erratic c = 0 footing (basic line search) meets it.
 STAGNATION = (3, 1e-3)
 
-#: A plateau (see :data:`STAGNATION`) whose ``|F|`` is below this fraction of the internal-force
-#: norm (:attr:`PlasticityProblem.force_rtol`'s scale) is accepted as converged instead of cut.
-#: Frictional contact on a steep non-associated cone (phi_dp = 58.6 deg, psi = 0, mu = 0.8) leaves
-#: Newton on plateaus of 1e-6 to 1e-3 of that norm which no step cut lowers, so the run used to fail
-#: at s/d = 0.007.  The residual left is reported (``PlasticityProblem.plateaus``); its effect on
-#: Q_V is measured in docs, "Non-associated flow: Newton stalls".  0 switches the acceptance off.
-PLATEAU_RTOL = 1e-3
 
 #: ``linear_solver="auto"`` (see :data:`rollsim.solver.options.LINEAR_SOLVERS`): direct (MUMPS LU,
 #: :data:`DEFAULT_PETSC_OPTIONS`) up to this many global dofs, :data:`ITERATIVE_SOLVER_OPTIONS`
@@ -243,7 +237,8 @@ class PlasticityProblem:
         unconstrained internal-force vector, i.e. of the reactions at equilibrium) - a
         units-consistent absolute floor.
     plateau_rtol : a Newton plateau below ``plateau_rtol * |F_internal|`` is accepted (default
-        :data:`PLATEAU_RTOL`; 0: never); :attr:`plateaus` counts them and keeps the largest ratio.
+        :data:`~rollsim.solver.options.PLATEAU_RTOL`; 0: never); :attr:`plateaus` counts them and
+        keeps the largest ratio.
     kinematics : ``"small-strain"`` (default: strains and equilibrium on the initial configuration)
         or ``"updated-lagrangian"``: incremental large deformation.  Each step's strain increment
         and equilibrium are taken on the configuration of the last converged step

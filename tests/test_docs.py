@@ -129,7 +129,8 @@ def test_documented_defaults_of_the_model_table():
     for key, shown in (("accuracy", f'`"{m.accuracy}"`'), ("kinematics", f'`"{m.kinematics}"`'),
                        ("linear_solver", f'`"{m.linear_solver}"`'),
                        ("volumetric_strain", f'`"{m.volumetric_strain}"` for indentation'),
-                       ("regularising_cohesion", f"{m.regularising_cohesion / 1e3:g} kPa")):
+                       ("regularising_cohesion", f"{m.regularising_cohesion / 1e3:g} kPa"),
+                       ("plateau_tolerance", f"| {m.plateau_tolerance:g} |")):
         row = next(line for line in page.splitlines() if line.startswith(f"| `model.{key}` |"))
         assert shown in row, (key, row)
 

@@ -403,16 +403,18 @@ def test_petsc_error_in_snes_logs_one_line_and_recovers(comm):
     assert rep.converged
 
 
-def _steep_sand(friction: float) -> dict:
+def _steep_sand(friction: float, **model) -> dict:
     """Compression-matched c = 0 sand (phi = 40 deg: phi_dp = 58.6 deg, psi = 0; the default
-    regularising cohesion), Mn/DOT wheel, fast preset, pushed to s/d = 0.02."""
+    regularising cohesion), Mn/DOT wheel, fast preset, pushed to s/d = 0.02; ``model``: more
+    ``[model]`` keys."""
     return {"wheel": {"diameter": 1.524, "width": 0.4572, "friction": friction},
             "soil": {"gamma": 20e3, "layers": [{"model": "drucker-prager", "E": 40e6, "nu": 0.35,
                                                 "phi_dp": 58.6, "c_dp": 0.0}]},
-            "loading": {"protocol": "indentation", "max_sinkage": 0.02 * 1.524}, "model": {"accuracy": "fast"}}
+            "loading": {"protocol": "indentation", "max_sinkage": 0.02 * 1.524},
+            "model": {"accuracy": "fast", **model}}
 
 
-def test_newton_plateaus_let_a_steep_nonassociated_sand_indent(comm, tmp_mpi_path, monkeypatch):
+def test_newton_plateaus_let_a_steep_nonassociated_sand_indent(comm, tmp_mpi_path):
     """With mu = 0.8 Newton stalls on plateaus of 1e-6 to 1e-3 of the internal-force norm that no
     step cut lowers: cutting alone failed at s/d = 0.007; with the plateaus accepted the wheel
     reaches s/d = 0.02 and the residual left stays below 0.1 % of Q_V (measured 0.09 %; 1 % allowed).
@@ -422,8 +424,8 @@ def test_newton_plateaus_let_a_steep_nonassociated_sand_indent(comm, tmp_mpi_pat
     from rollsim.solver import problem
     from rollsim.solver.run import run_scene
 
-    def run(friction, name):
-        return run_scene(parse_scene(_steep_sand(friction)), tmp_mpi_path / name, comm, progress=False,
+    def run(friction, name, **model):
+        return run_scene(parse_scene(_steep_sand(friction, **model)), tmp_mpi_path / name, comm, progress=False,
                          write_fields=False)
 
     rough = run(0.8, "rough")
@@ -431,11 +433,11 @@ def test_newton_plateaus_let_a_steep_nonassociated_sand_indent(comm, tmp_mpi_pat
     plateaus = rough["newton_plateaus"]
     assert plateaus["accepted"] > 0 and 0 < plateaus["max_residual_ratio"] <= problem.PLATEAU_RTOL
     assert plateaus["max_residual_over_QV"] < 0.01, plateaus
+    assert rough["model"]["plateau_tolerance"] == problem.PLATEAU_RTOL
     accepted = run(0.0, "smooth")
-    monkeypatch.setattr(problem, "PLATEAU_RTOL", 0.0)
-    cut_only = run(0.0, "smooth-cut")
+    cut_only = run(0.0, "smooth-cut", plateau_tolerance=0)
     assert accepted["status"] == cut_only["status"] == "ok"
-    assert cut_only["newton_plateaus"]["accepted"] == 0
+    assert cut_only["newton_plateaus"]["accepted"] == 0 and cut_only["model"]["plateau_tolerance"] == 0
     for s_over_d in ("0.01", "0.02"):
         ratio = accepted["QV_at_s_over_d"][s_over_d] / cut_only["QV_at_s_over_d"][s_over_d]
         assert abs(ratio - 1) < 0.02, (s_over_d, ratio)

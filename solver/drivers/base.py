@@ -74,7 +74,8 @@ class ProtocolRun:
                                    petsc_options=petsc_options, penalty=scene_penalty(scene, penalty),
                                    kinematics=model.kinematics, linear_solver=model.linear_solver,
                                    volumetric_strain=model.volumetric_strain,
-                                   relaxation_length=model.relaxation_length)
+                                   relaxation_length=model.relaxation_length,
+                                   plateau_rtol=model.plateau_tolerance)
         self.rows: list[dict] = []
         #: largest out-of-balance force left by an accepted Newton plateau, over that step's Q_V
         self.plateau_share = 0.0
@@ -129,8 +130,9 @@ class ProtocolRun:
 
     def model_summary(self) -> dict:
         """The ``model`` entry of ``summary.json``: what the run applied (symmetry, mesh preset,
-        element degree, kinematics, linear solver, strain, contact, relaxation length and the
-        regularising cohesion put in place of c = 0), read from the objects that were built."""
+        element degree, kinematics, linear solver, strain, contact, relaxation length, Newton
+        plateau tolerance and the regularising cohesion put in place of c = 0), read from the
+        objects that were built."""
         run = self.wheel_run
         ct = run.contact
         model = {"symmetry": {4: "quarter", 2: "half", 1: "full"}[run.factor], "symmetry_factor": run.factor,
@@ -139,7 +141,7 @@ class ProtocolRun:
                  "volumetric_strain": run.problem.volumetric_strain,
                  "contact": {"method": "penalty", "alpha": ct.alpha, "kappa_Pa_per_m": ct.kappa, "h_m": ct.h,
                              "friction": ct.friction},
-                 "relaxation_length_m": run.relaxation_length}
+                 "relaxation_length_m": run.relaxation_length, "plateau_tolerance": run.problem.plateau_rtol}
         if self.soil.regularised:
             model["regularising_cohesion_Pa"] = dict(self.soil.regularised)
         return model
