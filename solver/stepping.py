@@ -183,7 +183,8 @@ def _interrupt_signal(comm) -> str | None:
 def solve_load_path(problem, set_load: Callable[[float], None], control: StepControl = StepControl(),
                     on_step: Callable[[float], dict | None] | None = None, t_start: float = 0.0
                     ) -> list[StepRecord]:
-    """Drive ``problem`` (a :class:`PlasticityProblem`) from ``t_start`` to ``control.t_end``.
+    """Drive ``problem`` (a :class:`PlasticityProblem`, or any object with ``comm``, ``u``, ``u_n``,
+    ``solve_increment``, ``commit`` and ``restore``) from ``t_start`` to ``control.t_end``.
 
     ``set_load(t)`` must put the boundary data / loads of pseudo-time ``t`` into the problem
     (e.g. the footing displacement Constant).  After each converged step the history is
@@ -289,5 +290,8 @@ def _extrapolate(problem, u_prev: np.ndarray, ratio: float) -> None:
 
 
 def _snapshot(problem, t: float) -> ConvergedState:
-    return ConvergedState(t=t, u=problem.u_n.x.array.copy(), sigma=problem.sigma_n.x.array.copy(),
-                          eps_p=problem.eps_p.x.array.copy())
+    """The converged state; a problem without history variables (elastic) gives empty ones."""
+    def saved(name):
+        f = getattr(problem, name, None)
+        return f.x.array.copy() if f is not None else np.empty(0)
+    return ConvergedState(t=t, u=problem.u_n.x.array.copy(), sigma=saved("sigma_n"), eps_p=saved("eps_p"))
