@@ -35,9 +35,10 @@ __all__ = ["NeoHookean", "Inflation"]
 log = get_logger("solver")
 
 #: Newton of the inflation: converged when ``|R| <= NEWTON_RTOL |R_0|`` (``R_0``: the residual of
-#: the step's first iterate) or when the update is below ``NEWTON_STOL`` of the displacement
+#: the step's first iterate) or when the update is below ``NEWTON_STOL`` of the displacement (a
+#: stiff carcass under a small pressure reaches the round-off floor of its internal forces first)
 NEWTON_RTOL = 1e-10
-NEWTON_STOL = 1e-12
+NEWTON_STOL = 1e-9
 NEWTON_MAX_IT = 25
 
 
