@@ -1,4 +1,4 @@
-"""Hyperelastic carcass under a follower pressure (solver/inflation.py): a thick neo-Hookean sphere
+"""Hyperelastic carcass under a follower pressure (solver/carcass.py): a thick neo-Hookean sphere
 against its exact radial solution, the follower load's closed-surface identity, the tire inflated."""
 from __future__ import annotations
 
@@ -12,7 +12,7 @@ from mpi4py import MPI
 
 from rollsim.geometry import MeshOptions, build_tire, pneumatic_tire
 from rollsim.geometry.shell import build_spherical_shell
-from rollsim.solver.inflation import Inflation, NeoHookean
+from rollsim.solver.carcass import Carcass, NeoHookean
 
 A, B, E, NU = 1.0, 1.5, 1e6, 0.3       # m, m, Pa: inner / outer radius of the test shell
 
@@ -61,11 +61,11 @@ def test_small_inflation_of_a_thick_sphere_is_lame(comm):
     / (E (B^3 - A^3)), to within the finite-strain correction of that load (0.27 %, from the exact
     solution; measured 0.21 %)."""
     shell = build_spherical_shell(comm, A, B, MeshOptions(0.2, 0.2, 1.0, order=2))
-    inflation = Inflation(shell, NeoHookean(E, NU))
+    carcass = Carcass(shell, NeoHookean(E, NU))
     p = 1e-3 * E
-    inflation.inflate(p)
+    carcass.inflate(p)
     lame = p * A ** 3 * ((1 - 2 * NU) * A + (1 + NU) * B ** 3 / (2 * A ** 2)) / (E * (B ** 3 - A ** 3))
-    grown = -inflation.mean_normal_displacement("inner_surface")     # the body's normal points inwards there
+    grown = -carcass.mean_normal_displacement("inner_surface")     # the body's normal points inwards there
     assert grown == pytest.approx(lame, rel=4e-3)
     assert grown == pytest.approx(exact_sphere_inflation(p)[0], rel=1e-3)
 
@@ -81,16 +81,16 @@ def test_large_inflation_of_a_thick_sphere_converges_to_the_exact_solution(comm)
     assert exact_inner > 1.4 * p * A ** 3 * ((1 - 2 * NU) * A + (1 + NU) * B ** 3 / (2 * A ** 2)) / (E * (B ** 3 - A ** 3))
     errors = []
     for size in (0.3, 0.2, 0.15):
-        inflation = Inflation(build_spherical_shell(comm, A, B, MeshOptions(size, size, 1.0, order=2)),
+        carcass = Carcass(build_spherical_shell(comm, A, B, MeshOptions(size, size, 1.0, order=2)),
                               NeoHookean(E, NU))
-        records = inflation.inflate(p)
+        records = carcass.inflate(p)
         assert max(r.iterations for r in records) <= 6          # quadratic Newton: the load stiffness is in
-        inner = -inflation.mean_normal_displacement("inner_surface")
-        outer = inflation.mean_normal_displacement("outer_surface")
+        inner = -carcass.mean_normal_displacement("inner_surface")
+        outer = carcass.mean_normal_displacement("outer_surface")
         errors.append(abs(inner / exact_inner - 1))
         assert outer == pytest.approx(exact_outer, rel=2e-3)
         projected = p * math.pi / 4 * (A + inner) ** 2
-        np.testing.assert_allclose(inflation.gas_force(), projected, rtol=2e-3)
+        np.testing.assert_allclose(carcass.gas_force(), projected, rtol=2e-3)
     assert errors[-1] < 5e-4, errors
     order = math.log(errors[0] / errors[-1]) / math.log(0.3 / 0.15)
     assert order > 2, (errors, order)
@@ -101,10 +101,10 @@ def test_follower_pressure_on_a_closed_surface_has_no_resultant(comm):
     continuous deformation (the Piola identity): so a uniform pressure on a closed cavity has no
     net force however the carcass deforms.  Checked for a non-symmetric field on the shell octant."""
     shell = build_spherical_shell(comm, A, B, MeshOptions(0.3, 0.3, 1.0, order=2))
-    inflation = Inflation(shell, NeoHookean(E, NU))
-    inflation.u.interpolate(lambda x: np.vstack([0.1 * np.sin(x[1]) * x[2], 0.05 * x[0] ** 2 - 0.02 * x[2],
+    carcass = Carcass(shell, NeoHookean(E, NU))
+    carcass.u.interpolate(lambda x: np.vstack([0.1 * np.sin(x[1]) * x[2], 0.05 * x[0] ** 2 - 0.02 * x[2],
                                                  0.08 * x[0] * x[1] + 0.03 * np.cos(x[0])]))
-    F = ufl.Identity(3) + ufl.grad(inflation.u)
+    F = ufl.Identity(3) + ufl.grad(carcass.u)
     cof_n = ufl.det(F) * ufl.dot(ufl.inv(F).T, ufl.FacetNormal(shell.mesh))
     ds = ufl.Measure("ds", domain=shell.mesh, metadata={"quadrature_degree": 8})
     resultant = [comm.allreduce(fem.assemble_scalar(fem.form(cof_n[i] * ds)), op=MPI.SUM) for i in range(3)]
@@ -118,12 +118,12 @@ def test_tire_inflates_with_the_bead_held(comm):
     a few iterations per step, the tread grows outwards, the bead stays on the hub, and the gas
     force on the full turn of the carcass has no x or z resultant."""
     tire = pneumatic_tire(1.524, width=0.3, hub_diameter=0.5, shoulder_radius=0.08, gap=0.01, cut="half")
-    inflation = Inflation(build_tire(comm, tire, MeshOptions(0.1, 0.1, 1.0, order=2)), NeoHookean(50e6, 0.45))
-    records = inflation.inflate(650e3)
+    carcass = Carcass(build_tire(comm, tire, MeshOptions(0.1, 0.1, 1.0, order=2)), NeoHookean(50e6, 0.45))
+    records = carcass.inflate(650e3)
     assert max(r.iterations for r in records) <= 10
-    assert inflation.mean_normal_displacement("outer_surface") > 0.01            # m, outwards
-    assert abs(inflation.mean_normal_displacement("hub_rim")) < 1e-12
-    force = inflation.gas_force()
+    assert carcass.mean_normal_displacement("outer_surface") > 0.01            # m, outwards
+    assert abs(carcass.mean_normal_displacement("hub_rim")) < 1e-12
+    force = carcass.gas_force()
     assert abs(force[0]) < 1e-9 * abs(force[1]) and abs(force[2]) < 1e-9 * abs(force[1])
 
 
@@ -159,10 +159,37 @@ def test_thin_carcass_bends_without_locking(comm):
     ds = ufl.Measure("ds", domain=body.mesh, subdomain_data=body.facet_tags)
     tip = {}
     for degree in (2, 1):
-        inflation = Inflation(body, NeoHookean(young, 0.0), pressure_facets=("top",), degree=degree)
-        inflation.inflate(q)
+        carcass = Carcass(body, NeoHookean(young, 0.0), pressure_facets=("top",), degree=degree)
+        carcass.inflate(q)
         deflection, area = (comm.allreduce(fem.assemble_scalar(fem.form(f * ds(14))), op=MPI.SUM)
-                            for f in (-inflation.u[2], fem.Constant(body.mesh, 1.0)))
+                            for f in (-carcass.u[2], fem.Constant(body.mesh, 1.0)))
         tip[degree] = deflection / area
     assert tip[2] == pytest.approx(beam, rel=0.01)
     assert tip[1] < 0.2 * beam
+
+
+@pytest.mark.slow
+def test_inflated_tire_on_rigid_ground_carries_more_load_at_higher_pressure(comm):
+    """The tire (half model, coarse) inflated clear of a rigid flat ground, then its hub lowered to a
+    deflection of 40 mm: the ground force rises with the inflation pressure, the air carries
+    part of it (p times the contact area) and the carcass the rest, the patch grows as the hub
+    goes down, and the tread does not sink into the ground by more than the penalty allows."""
+    tire = pneumatic_tire(1.524, width=0.3, hub_diameter=0.5, shoulder_radius=0.08, gap=0.01, cut="half")
+    mesh = build_tire(comm, tire, MeshOptions(0.15, 0.15, 1.0, order=2))
+    ground, deflection = -0.2, 0.04
+    loads = {}
+    for pressure in (400e3, 650e3):
+        carcass = Carcass(mesh, NeoHookean(50e6, 0.45), ground=ground)
+        carcass.inflate(pressure)
+        assert carcass.ground_force() == 0.0
+        carcass.press(carcass.lowest_point() - ground)                      # free, down to the ground
+        records = carcass.press(deflection,
+                                on_step=lambda: {"Q": 2 * carcass.ground_force(), "A": 2 * carcass.contact_area()})
+        pressed = [r.data for r in records if r.data["Q"] > 0]
+        assert len(pressed) >= 3 and all(b["A"] >= a["A"] for a, b in zip(pressed, pressed[1:]))
+        last = pressed[-1]
+        assert 0.05 < 1 - pressure * last["A"] / last["Q"] < 0.9           # the carcass's share
+        penetration = ground - carcass.lowest_point()
+        assert 0 < penetration < 2 * pressure / carcass.kappa + 1e-4
+        loads[pressure] = last["Q"]
+    assert loads[650e3] > 1.05 * loads[400e3], loads                  # measured +13 % (E = 50 MPa)

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from typing import Callable
 
 import numpy as np
 import ufl
@@ -27,10 +28,11 @@ from petsc4py import PETSc
 from rollsim import compat
 from rollsim.log import get_logger
 
+from .contact import DEFAULT_PENALTY, _contact_cell_size
 from .problem import NewtonReport
 from .stepping import StepControl, StepRecord, solve_load_path
 
-__all__ = ["NeoHookean", "Inflation"]
+__all__ = ["NeoHookean", "Carcass"]
 
 log = get_logger("solver")
 
@@ -72,17 +74,22 @@ class NeoHookean:
         return self.mu * (F - F_inv_T) + self.lmbda * ufl.ln(ufl.det(F)) * F_inv_T
 
 
-class Inflation:
+class Carcass:
     """A hyperelastic body (``tagged``: a TaggedMesh) inflated by a pressure on ``pressure_facets``.
 
     ``material``: one :class:`NeoHookean` or ``{cell tag: NeoHookean}``; ``clamped_facets``: names of
-    facets held in place (missing names are skipped); ``degree``: displacement degree.
-    Call :meth:`inflate`; afterwards :meth:`gas_force` and :meth:`mean_normal_displacement` read
-    the inflated state.
+    facets tied to the rigid hub (missing names are skipped), which :meth:`set_hub` moves;
+    ``degree``: displacement degree.  ``ground``: height (m) of a rigid flat ground ``z = ground``
+    that the ``contact_facets`` may touch (frictionless penalty, ``p_N = kappa <-g>_+`` with the
+    gap ``g = z + u_z - ground`` and ``kappa = penalty E_max / h``, ``h`` the smallest cell at the
+    contact facets); ``None``: no ground.
+    Call :meth:`inflate`, then :meth:`press` against the ground; :meth:`gas_force`,
+    :meth:`ground_force`, :meth:`contact_area` and :meth:`mean_normal_displacement` read the state.
     """
 
     def __init__(self, tagged, material, *, pressure_facets=("inner_surface",),
-                 clamped_facets=("hub_rim",), degree: int = 2):
+                 clamped_facets=("hub_rim",), degree: int = 2, ground: float | None = None,
+                 contact_facets=("outer_surface",), penalty: float = DEFAULT_PENALTY):
         msh = tagged.mesh
         self.tagged, self.comm = tagged, msh.comm
         self.V = V = compat.vector_space(msh, degree)
@@ -105,6 +112,17 @@ class Inflation:
         #: force of the gas on the body per unit reference area: -p J F^-T N (Nanson)
         self._traction = -self.pressure * ufl.det(F) * ufl.dot(ufl.inv(F).T, ufl.FacetNormal(msh))
         residual = internal - ufl.dot(self._traction, v) * self._surface
+        self.hub = fem.Constant(msh, np.zeros(3, dtype=PETSc.ScalarType))     # m, set_hub()
+        self.ground, self.kappa = ground, 0.0
+        if ground is not None:
+            ids = [names[name] for name in contact_facets if name in names]
+            h = _contact_cell_size(msh, tagged.facet_tags, ids)
+            self.kappa = penalty * max(mat.E for mat in materials.values()) / h        # Pa/m
+            x = ufl.SpatialCoordinate(msh)
+            #: contact pressure of the ground on the body, Pa (per unit reference area)
+            self._ground_pressure = self.kappa * ufl.max_value(ground - x[2] - self.u[2], 0.0)
+            self._contact = ds(tuple(ids))
+            residual = residual - self._ground_pressure * v[2] * self._contact
         self._R = fem.form(residual)
         self._J = fem.form(ufl.derivative(residual, self.u, ufl.TrialFunction(V)))
         self.bcs = self._boundary_conditions(clamped_facets)
@@ -129,7 +147,7 @@ class Inflation:
         for name in clamped_facets:
             if name in tagged.facet_names:
                 dofs = fem.locate_dofs_topological(V, fdim, tagged.facet_tags.find(tagged.facet_names[name]))
-                bcs.append(fem.dirichletbc(np.zeros(3, dtype=PETSc.ScalarType), dofs, V))
+                bcs.append(fem.dirichletbc(self.hub, dofs, V))
         return bcs
 
     # ------------------------------------------------------------------ the stepping protocol
@@ -189,6 +207,52 @@ class Inflation:
         log.info("inflated to %.4g Pa: %d steps, %d Newton iterations", pressure, len(records),
                  sum(r.iterations for r in records))
         return records
+
+    def set_hub(self, displacement) -> None:
+        """Move the rigid hub (and the bead tied to it) to ``displacement`` (m, x / y / z) from
+        its initial place; applied at the next solve."""
+        self.hub.value = np.asarray(displacement, dtype=float)
+
+    def press(self, hub_travel: float, control: StepControl | None = None,
+              on_step: Callable[[], dict] | None = None) -> list[StepRecord]:
+        """Lower the hub by ``hub_travel`` (m) from where it is, the pressure held, against the
+        ground; ``on_step()`` is called after each converged step and its dict kept in the record.
+        Raises :class:`~rollsim.solver.stepping.SolverDivergedError` on failure."""
+        if self.ground is None:
+            raise ValueError("press: this carcass has no ground (give ground=...)")
+        start = np.array(self.hub.value, dtype=float)
+        control = control or StepControl(dt=0.05, dt_min=1e-4, dt_max=0.1, easy_iterations=6, max_cuts=8)
+
+        def set_load(t):
+            self.set_hub(start - np.array([0.0, 0.0, t * hub_travel]))
+
+        records = solve_load_path(self, set_load, control, on_step=(lambda t: on_step()) if on_step else None)
+        self.history += records
+        return records
+
+    def ground_force(self) -> float:
+        """Upward force of the ground on the modelled part of the body, N."""
+        if self.ground is None:
+            return 0.0
+        return self._integral(self._ground_pressure * self._contact)
+
+    def contact_area(self) -> float:
+        """Reference area of the contact facets pressed into the ground, m^2."""
+        if self.ground is None:
+            return 0.0
+        touching = ufl.conditional(ufl.gt(self._ground_pressure, 0.0), 1.0, 0.0)
+        return self._integral(touching * self._contact)
+
+    def lowest_point(self, facet_name: str = "outer_surface") -> float:
+        """Lowest current height (m) of the nodes of the named facets (a tire's sinkage is
+        measured to its lowest point)."""
+        tagged = self.tagged
+        Vz, to_u = self.V.sub(2).collapse()
+        facets = tagged.facet_tags.find(tagged.facet_names[facet_name])
+        dofs = fem.locate_dofs_topological(Vz, tagged.mesh.topology.dim - 1, facets)
+        dofs = dofs[dofs < Vz.dofmap.index_map.size_local]                  # owned: each node once
+        z = Vz.tabulate_dof_coordinates()[dofs, 2] + self.u.x.array[np.asarray(to_u)[dofs]]
+        return self.comm.allreduce(float(z.min()) if z.size else np.inf, op=MPI.MIN)
 
     def _integral(self, integrand) -> float:
         return self.comm.allreduce(fem.assemble_scalar(fem.form(integrand)), op=MPI.SUM)
