@@ -5,7 +5,7 @@
     mpirun -n 2 python benchmarks/bench_speed_accuracy.py --profile indentation-vm --refinement standard
 
 Scenes (Mn/DOT roller, d = 1.524 m, b = 0.4572 m; each with the scene default volumetric strain
-of its protocol unless ``--volumetric-strain`` is given):
+of its protocol on the fast preset, for every level, unless ``--volumetric-strain`` is given):
 
 * ``indentation-vm``: report case 2 (von Mises, q_y = 200 kPa, mu = 0.8), quarter block, Q_V at
   s/d = 0.02, 0.05 and 0.08;
@@ -136,10 +136,11 @@ def sweep(args) -> int:
 
 
 def scene_strain(scene: str, volumetric_strain: str | None) -> str:
-    """The volumetric strain of a scene's runs: the one given, else its protocol's scene default."""
+    """The volumetric strain of a scene's runs: the one given, else its protocol's scene default on
+    the fast preset (one strain for every level of a sweep)."""
     from rollsim.solver.options import default_volumetric_strain
     return volumetric_strain or default_volumetric_strain(
-        "indentation" if scene.startswith("indentation") else "rolling-constant-load")
+        "indentation" if scene.startswith("indentation") else "rolling-constant-load", "fast")
 
 
 # ---------------------------------------------------------------------------------------------- report
@@ -318,7 +319,7 @@ def parser() -> argparse.ArgumentParser:
                    help="levels: preset names or elements per d")
     p.add_argument("--ranks", nargs="+", type=int, default=[1, 2], help="MPI ranks of the runs")
     p.add_argument("--volumetric-strain", choices=("cell-average", "pointwise"),
-                   help="default: the scene default of each protocol")
+                   help="default: the scene default of each protocol on the fast preset")
     p.add_argument("--results", type=pathlib.Path, default=RESULTS, help="directory of the JSON results")
     p.add_argument("--figure", type=pathlib.Path, default=FIGURE)
     p.add_argument("--report", action="store_true", help="only print the table and draw the figure")

@@ -82,7 +82,7 @@ class ModelSpec:
     accuracy: str = DEFAULT_ACCURACY
     kinematics: str = DEFAULT_KINEMATICS
     linear_solver: str = DEFAULT_LINEAR_SOLVER
-    volumetric_strain: str = DEFAULT_VOLUMETRIC_STRAIN   # parse_scene: default_volumetric_strain(protocol)
+    volumetric_strain: str = DEFAULT_VOLUMETRIC_STRAIN   # parse_scene: default_volumetric_strain(protocol, accuracy)
     relaxation_length: float = DEFAULT_RELAXATION_LENGTH   # m of the wheel's path; > 0: Duvaut-Lions
     regularising_cohesion: float = DEFAULT_REGULARISING_COHESION   # Pa in place of c = 0; 0: c stays 0
     plateau_tolerance: float = PLATEAU_RTOL   # Newton plateaus accepted below this x |F_internal|; 0: never
@@ -310,11 +310,12 @@ def parse_scene(data: dict) -> Scene:
     soil = _soil(sections["soil"])
     loading = _loading(sections["loading"], wheel)
     model_table = _Table(top.raw("model", {}), "model", top.notes)
-    model = ModelSpec(accuracy=model_table.choice("accuracy", ACCURACIES, default=DEFAULT_ACCURACY),
+    accuracy = model_table.choice("accuracy", ACCURACIES, default=DEFAULT_ACCURACY)
+    strain = default_volumetric_strain(loading.protocol, accuracy)
+    model = ModelSpec(accuracy=accuracy,
                       kinematics=model_table.choice("kinematics", KINEMATICS, default=DEFAULT_KINEMATICS),
                       linear_solver=model_table.choice("linear_solver", LINEAR_SOLVERS, default=DEFAULT_LINEAR_SOLVER),
-                      volumetric_strain=model_table.choice("volumetric_strain", VOLUMETRIC_STRAINS,
-                                                           default=default_volumetric_strain(loading.protocol)),
+                      volumetric_strain=model_table.choice("volumetric_strain", VOLUMETRIC_STRAINS, default=strain),
                       relaxation_length=model_table.quantity("relaxation_length", LENGTH,
                                                              default=DEFAULT_RELAXATION_LENGTH, minimum=0.0),
                       regularising_cohesion=model_table.quantity("regularising_cohesion", PRESSURE,

@@ -128,7 +128,8 @@ def test_documented_defaults_of_the_model_table():
     m = scene.model
     for key, shown in (("accuracy", f'`"{m.accuracy}"`'), ("kinematics", f'`"{m.kinematics}"`'),
                        ("linear_solver", f'`"{m.linear_solver}"`'),
-                       ("volumetric_strain", f'`"{m.volumetric_strain}"` for indentation'),
+                       ("volumetric_strain", f'`"{m.volumetric_strain}"` for indentation and for rolling on '
+                                             '`standard` and `accurate`'),
                        ("regularising_cohesion", f"{m.regularising_cohesion / 1e3:g} kPa"),
                        ("plateau_tolerance", f"| {m.plateau_tolerance:g} |")):
         row = next(line for line in page.splitlines() if line.startswith(f"| `model.{key}` |"))

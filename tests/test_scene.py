@@ -40,7 +40,7 @@ def test_examples_load():
     assert rolling.wheel.diameter == pytest.approx(1.524) and rolling.wheel.fillet == pytest.approx(0.4572 / 12)
     assert rolling.soil.layers[0].thickness == pytest.approx(0.61) and rolling.soil.layers[-1].thickness is None
     assert rolling.loading.load == 133.5e3 and rolling.model.accuracy == "fast"
-    assert rolling.model.volumetric_strain == "pointwise"           # the rolling protocols' default
+    assert rolling.model.volumetric_strain == "pointwise"           # rolling on the fast preset
     assert rolling.model.relaxation_length == pytest.approx(1e-3)    # the non-associated sand needs it
 
 
@@ -61,6 +61,9 @@ def test_si_conversion_and_defaults():
     rolling = with_change("loading", {"protocol": "rolling-continuous", "max_sinkage": "1 in", "travel": "3 m"})
     rolling["model"] = {"relaxation_length": "1 mm"}
     assert parse_scene(rolling).model.relaxation_length == pytest.approx(1e-3)
+    assert parse_scene(rolling).model.volumetric_strain == "cell-average"     # rolling, standard: B-bar
+    rolling["model"]["accuracy"] = "fast"
+    assert parse_scene(rolling).model.volumetric_strain == "pointwise"        # rolling, fast: pointwise
     assert parse_scene(with_change("model.relaxation_length", "0.01 mm")).model.relaxation_length == pytest.approx(1e-5)
     assert scene.model.regularising_cohesion == 1e3                 # in place of c = 0; 0 keeps c = 0
     assert parse_scene(with_change("model.regularising_cohesion", 0)).model.regularising_cohesion == 0
