@@ -19,7 +19,8 @@ it passed is shown).  For each strain it is extrapolated from the three finest l
 the observed order from the generalised three-level formula of Celik et al., J. Fluids Eng. 130
 (2008) 078001); a level's error is against that value.  Prints a Markdown table (``--table``
 rebuilds it from saved JSON files without solving).  ``--relaxation-length`` (mm) runs the
-levels with a Duvaut-Lions regularisation (kept apart in the table).  An existing ``--out`` file is
+levels with a Duvaut-Lions regularisation, ``--length`` / ``--travel`` (d) on a longer block
+(both kept apart in the table).  An existing ``--out`` file is
 resumed: the levels it holds are not solved again.
 """
 from __future__ import annotations
@@ -38,14 +39,24 @@ from rollsim.solver.options import VOLUMETRIC_STRAINS
 
 SOILS = {"clay": ["--yield-stress", "300", "--load", "100", "--mu", "0"],
          "case5": ["--yield-stress", "194.6", "--phi-dp", "27.5", "--load", "133.5", "--mu", "0.8"]}
-BLOCK = ["--length", "2.6", "--half-width", "0.8", "--depth", "0.8", "--stiff", "0.5", "--cl-travel", "1.5"]
+#: block length and constant-load travel (in d) of the study's levels
+LENGTH, TRAVEL = 2.6, 1.5
+#: values of the run keys that results saved before the key existed were run with
+DEFAULTS = {"relaxation_length_mm": 0.0, "block_length_d": LENGTH, "travel_d": TRAVEL}
+
+
+def block_args(length: float = LENGTH, travel: float = TRAVEL) -> list[str]:
+    """The half block (``length`` x 0.8 x 0.8 d, 0.5 d stiff start zone) and the travel, as
+    arguments of ``bench_rolling_protocols.py``."""
+    return ["--length", f"{length:g}", "--half-width", "0.8", "--depth", "0.8", "--stiff", "0.5",
+            "--cl-travel", f"{travel:g}"]
 
 
 def level_args(soil: str, refinement: float, strain: str, relaxation_length: float = 0.0,
-               block: list[str] = BLOCK):
+               block: list[str] | None = None):
     """The constant-load run of ``soil`` at ``refinement`` elements per d on ``block`` (arguments of
-    ``bench_rolling_protocols.py``), as parsed arguments."""
-    return protocols.parser().parse_args(SOILS[soil] + block + [
+    ``bench_rolling_protocols.py``; default :func:`block_args`), as parsed arguments."""
+    return protocols.parser().parse_args(SOILS[soil] + (block or block_args()) + [
         "--refinement", f"{refinement:g}", "--volumetric-strain", strain, "--skip-continuous",
         "--relaxation-length", f"{relaxation_length:g}"])
 
@@ -59,9 +70,14 @@ def sinkage(r: dict) -> float | None:
 
 
 def formulation(r: dict) -> str:
-    """The strain of a run, with its relaxation length when it had one."""
+    """The strain of a run, with its relaxation length and its block when they are not the
+    study's default."""
     ell = r.get("relaxation_length_mm", 0.0)
-    return f"{r['strain']}, {ell:g} mm relaxation" if ell else r["strain"]
+    text = f"{r['strain']}, {ell:g} mm relaxation" if ell else r["strain"]
+    length, travel = r.get("block_length_d", LENGTH), r.get("travel_d", TRAVEL)
+    if (length, travel) != (LENGTH, TRAVEL):
+        text += f", {length:g} d block, {travel:g} d travel"
+    return text
 
 
 def table(results: list[dict]) -> str:
@@ -103,6 +119,8 @@ def main(argv=None) -> int:
     p.add_argument("--volumetric-strain", choices=VOLUMETRIC_STRAINS, nargs="+", default=list(VOLUMETRIC_STRAINS))
     p.add_argument("--relaxation-length", type=float, default=0.0,
                    help="Duvaut-Lions relaxation length of the soil, mm of travel (0: off)")
+    p.add_argument("--length", type=float, default=LENGTH, help="block length, d (kept apart in the table)")
+    p.add_argument("--travel", type=float, default=TRAVEL, help="constant-load travel limit, d")
     p.add_argument("--table", nargs="+", metavar="JSON", help="print the table of saved results and stop")
     p.add_argument("--out")
     args = p.parse_args(argv)
@@ -117,18 +135,21 @@ def main(argv=None) -> int:
         results = json.loads(pathlib.Path(args.out).read_text())["results"]
     for strain in args.volumetric_strain:
         for n in args.refinement:
-            run = {"soil": args.soil, "strain": strain, "refinement": n, "relaxation_length_mm": args.relaxation_length}
-            if any(all(r.get(k, 0.0) == v for k, v in run.items()) for r in results):
+            run = {"soil": args.soil, "strain": strain, "refinement": n,
+                   "relaxation_length_mm": args.relaxation_length, "block_length_d": args.length,
+                   "travel_d": args.travel}
+            if any(all(r.get(k, DEFAULTS.get(k, 0.0)) == v for k, v in run.items()) for r in results):
                 if comm.rank == 0:
                     print(f"{formulation(run)}, {n:g} elements / d: in {args.out}, not solved again", flush=True)
                 continue
-            level = level_args(args.soil, n, strain, args.relaxation_length)
+            level = level_args(args.soil, n, strain, args.relaxation_length, block_args(args.length, args.travel))
             cl = protocols.constant_load(comm, level.mu[0], level)
             cl.pop("curve")
             results.append({**run, "ranks": comm.size, **cl})
             if comm.rank == 0:
                 s = sinkage(cl)
-                print(f"{args.soil}, {formulation(run)}, {n:g} elements / d: {cl['status']}, steady {cl.get('steady')}, "
+                print(f"{args.soil}, {formulation(run)}, {n:g} elements / d: {cl['status']}, "
+                      f"steady {cl.get('steady')}, "
                       f"s = {1e3 * (s if s else math.nan):.2f} mm, {cl['dofs']} dofs, "
                       f"{cl['newton_iterations']} Newton its, {cl['time_s']:.0f} s", flush=True)
             dump_json(comm, args.out, {"args": vars(args), "results": results})

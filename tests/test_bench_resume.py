@@ -41,6 +41,20 @@ def test_rolling_convergence_resumes_and_keeps_regularised_runs_apart(benchmarks
     assert "not solved again" in text
     assert "| case5 | cell-average | 6 |" in text and "| case5 | cell-average, 0.5 mm relaxation | 6 |" in text
     assert len(json.loads(out.read_text())["results"]) == 2
+    # a longer block is another run: solved, and labelled apart in the table
+    solved = []
+
+    def record(comm, mu, level):
+        solved.append((level.length, level.cl_travel))
+        raise RuntimeError("stop")
+
+    monkeypatch.setattr(convergence.protocols, "constant_load", record)
+    with pytest.raises(RuntimeError, match="stop"):
+        convergence.main(["--soil", "case5", "--refinement", "6", "--volumetric-strain", "cell-average",
+                          "--length", "3.6", "--travel", "2.5", "--out", str(out)])
+    assert solved == [(3.6, 2.5)]
+    longer = _level(6.0, 0.019, relaxation_length_mm=0.0, block_length_d=3.6, travel_d=2.5)
+    assert convergence.formulation(longer) == "cell-average, 3.6 d block, 2.5 d travel"
 
 
 @pytest.mark.serial
