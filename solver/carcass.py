@@ -123,6 +123,9 @@ class Carcass:
             self._ground_pressure = self.kappa * ufl.max_value(ground - x[2] - self.u[2], 0.0)
             self._contact = ds(tuple(ids))
             residual = residual - self._ground_pressure * v[2] * self._contact
+            touching = ufl.conditional(ufl.gt(self._ground_pressure, 0.0), 1.0, 0.0)
+            self._ground_force_form = fem.form(self._ground_pressure * self._contact)
+            self._contact_area_form = fem.form(touching * self._contact)
         self._R = fem.form(residual)
         self._J = fem.form(ufl.derivative(residual, self.u, ufl.TrialFunction(V)))
         self.bcs = self._boundary_conditions(clamped_facets)
@@ -134,6 +137,7 @@ class Carcass:
         self._ksp.getPC().setFactorSolverType("mumps")
         self.newton_iterations = 0
         self.history: list[StepRecord] = []
+        self._surface_nodes: dict[str, tuple] = {}     # facet name -> node heights, u_z entries
 
     def _boundary_conditions(self, clamped_facets) -> list:
         tagged, V = self.tagged, self.V
@@ -234,28 +238,34 @@ class Carcass:
         """Upward force of the ground on the modelled part of the body, N."""
         if self.ground is None:
             return 0.0
-        return self._integral(self._ground_pressure * self._contact)
+        return self._assemble(self._ground_force_form)
 
     def contact_area(self) -> float:
         """Reference area of the contact facets pressed into the ground, m^2."""
         if self.ground is None:
             return 0.0
-        touching = ufl.conditional(ufl.gt(self._ground_pressure, 0.0), 1.0, 0.0)
-        return self._integral(touching * self._contact)
+        return self._assemble(self._contact_area_form)
 
     def lowest_point(self, facet_name: str = "outer_surface") -> float:
         """Lowest current height (m) of the nodes of the named facets (a tire's sinkage is
         measured to its lowest point)."""
-        tagged = self.tagged
-        Vz, to_u = self.V.sub(2).collapse()
-        facets = tagged.facet_tags.find(tagged.facet_names[facet_name])
-        dofs = fem.locate_dofs_topological(Vz, tagged.mesh.topology.dim - 1, facets)
-        dofs = dofs[dofs < Vz.dofmap.index_map.size_local]                  # owned: each node once
-        z = Vz.tabulate_dof_coordinates()[dofs, 2] + self.u.x.array[np.asarray(to_u)[dofs]]
+        if facet_name not in self._surface_nodes:
+            tagged = self.tagged
+            Vz, to_u = self.V.sub(2).collapse()
+            facets = tagged.facet_tags.find(tagged.facet_names[facet_name])
+            dofs = fem.locate_dofs_topological(Vz, tagged.mesh.topology.dim - 1, facets)
+            dofs = dofs[dofs < Vz.dofmap.index_map.size_local]                  # owned: each node once
+            self._surface_nodes[facet_name] = (Vz.tabulate_dof_coordinates()[dofs, 2], np.asarray(to_u)[dofs])
+        z0, u_z = self._surface_nodes[facet_name]
+        z = z0 + self.u.x.array[u_z]
         return self.comm.allreduce(float(z.min()) if z.size else np.inf, op=MPI.MIN)
 
+    def _assemble(self, form) -> float:
+        """A compiled scalar form summed over the ranks."""
+        return self.comm.allreduce(fem.assemble_scalar(form), op=MPI.SUM)
+
     def _integral(self, integrand) -> float:
-        return self.comm.allreduce(fem.assemble_scalar(fem.form(integrand)), op=MPI.SUM)
+        return self._assemble(fem.form(integrand))
 
     def gas_force(self) -> np.ndarray:
         """Resultant force of the pressure on the body's current pressure surface (N, x / y / z)."""
