@@ -28,7 +28,7 @@ from petsc4py import PETSc
 from rollsim import compat
 from rollsim.log import get_logger
 
-from .contact import DEFAULT_PENALTY, _contact_cell_size
+from .contact import DEFAULT_PENALTY, contact_cell_size
 from .problem import NewtonReport
 from .stepping import StepControl, StepRecord, solve_load_path
 
@@ -116,7 +116,7 @@ class Carcass:
         self.ground, self.kappa = ground, 0.0
         if ground is not None:
             ids = [names[name] for name in contact_facets if name in names]
-            h = _contact_cell_size(msh, tagged.facet_tags, ids)
+            h = contact_cell_size(msh, tagged.facet_tags, ids)
             self.kappa = penalty * max(mat.E for mat in materials.values()) / h        # Pa/m
             x = ufl.SpatialCoordinate(msh)
             #: contact pressure of the ground on the body, Pa (per unit reference area)

@@ -47,7 +47,8 @@ from petsc4py import PETSc
 
 from rollsim import compat
 
-__all__ = ["Circle", "RigidWheelContact", "WheelForces", "PoseDerivatives", "ufl_signed_distance", "DEFAULT_PENALTY"]
+__all__ = ["Circle", "RigidWheelContact", "WheelForces", "PoseDerivatives", "ufl_signed_distance",
+           "contact_cell_size", "DEFAULT_PENALTY"]
 
 #: Default penalty factor alpha in kappa = alpha E / h (measured: docs, "Wheel contact, indentation").
 DEFAULT_PENALTY = 10.0
@@ -179,7 +180,7 @@ class RigidWheelContact:
             raise ValueError(f"penalty must be > 0, got {penalty}")
         self.E = float(E) if E is not None else max(m.E for m in pb.materials.values())
         ids = tuple(int(i) for i in np.atleast_1d(contact_ids))
-        self.h = float(h) if h is not None else _contact_cell_size(msh, facet_tags, ids)
+        self.h = float(h) if h is not None else contact_cell_size(msh, facet_tags, ids)
         self.kappa = self.alpha * self.E / self.h
         self.k_t = tangential_ratio * self.kappa
 
@@ -408,7 +409,7 @@ def _assemble_global(form, comm) -> float:
     return float(comm.allreduce(fem.assemble_scalar(form), op=MPI.SUM))
 
 
-def _contact_cell_size(msh, facet_tags, ids) -> float:
+def contact_cell_size(msh, facet_tags, ids) -> float:
     """Smallest diameter of the cells touching the contact facets (global)."""
     tdim = msh.topology.dim
     msh.topology.create_connectivity(tdim - 1, tdim)
