@@ -78,6 +78,10 @@ def test_c0_indentation_scene_without_regularising_cohesion(comm, tmp_mpi_path):
         model = summary["model"]
         assert model["relaxation_length_m"] == length and "regularising_cohesion_Pa" not in model
         assert model["contact"]["alpha"] == 1.0
+        kinds = {e["kind"]: e for e in model["regularisation"]}
+        assert "regularising_cohesion" not in kinds and ("duvaut_lions" in kinds) == (length > 0), kinds
+        if length:
+            assert kinds["duvaut_lions"]["value"] == length and kinds["duvaut_lions"]["effect"]["percent"][1] > 0
         q[length] = summary["QV_N"]
     assert q[3e-5] > q[0.0] > 0, q          # the regularisation's overstress is positive
 

@@ -434,6 +434,9 @@ def test_newton_plateaus_let_a_steep_nonassociated_sand_indent(comm, tmp_mpi_pat
     assert plateaus["accepted"] > 0 and 0 < plateaus["max_residual_ratio"] <= problem.PLATEAU_RTOL
     assert plateaus["max_residual_over_QV"] < 0.01, plateaus
     assert rough["model"]["plateau_tolerance"] == problem.PLATEAU_RTOL
+    devices = {e["kind"]: e for e in rough["model"]["regularisation"]}     # c_reg and the plateaus
+    assert devices["newton_plateaus"]["effect"]["percent"][1] == round(100 * plateaus["max_residual_over_QV"], 3)
+    assert devices["regularising_cohesion"]["value"] == 1e3
     accepted = run(0.0, "smooth")
     cut_only = run(0.0, "smooth-cut", plateau_tolerance=0)
     assert accepted["status"] == cut_only["status"] == "ok"

@@ -10,6 +10,7 @@ from mpi4py import MPI
 
 from rollsim.log import get_logger
 
+from ..regularisation import regularisation_summary
 from ..rundir import finish_run, history_row, make_run_directory, write_history
 from ..scene_model import layer_materials, relaxation_hint, scene_penalty, wheel_geometry
 
@@ -132,7 +133,8 @@ class ProtocolRun:
         """The ``model`` entry of ``summary.json``: what the run applied (symmetry, mesh preset,
         element degree, kinematics, linear solver, strain, contact, relaxation length, Newton
         plateau tolerance and the regularising cohesion put in place of c = 0), read from the
-        objects that were built."""
+        objects that were built, and ``regularisation``: each device applied with its estimated
+        effect (:func:`~rollsim.solver.regularisation.regularisation_summary`)."""
         run = self.wheel_run
         ct = run.contact
         model = {"symmetry": {4: "quarter", 2: "half", 1: "full"}[run.factor], "symmetry_factor": run.factor,
@@ -144,6 +146,10 @@ class ProtocolRun:
                  "relaxation_length_m": run.relaxation_length, "plateau_tolerance": run.problem.plateau_rtol}
         if self.soil.regularised:
             model["regularising_cohesion_Pa"] = dict(self.soil.regularised)
+        model["regularisation"] = regularisation_summary(
+            self.scene.loading.protocol, regularised=self.soil.regularised,
+            relaxation_length=run.relaxation_length, plateau_tolerance=run.problem.plateau_rtol,
+            plateau_share=self.plateau_share)
         return model
 
     def summary(self, status: str, reason: str, **results) -> dict:

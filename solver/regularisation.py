@@ -1,0 +1,107 @@
+"""What a run regularised, and how much that is estimated to move its result.
+
+Three devices can stand between a scene and the rate-independent answer; each is a scene key
+with a default the solver chooses:
+
+* ``regularising_cohesion``: a small cohesion put in place of c = 0 (default 1 kPa);
+* ``relaxation_length``: Duvaut-Lions viscoplasticity over a length of the wheel's path (default
+  off; a failed run on a non-associated soil suggests one);
+* ``plateau_tolerance``: Newton plateaus below this share of the internal-force norm accepted as
+  converged (default 1e-3).
+
+:func:`regularisation_summary` lists the ones a run applied, for ``summary.json``
+(``model.regularisation``), each with an estimate of its effect from the measurements in the
+docs (limitations, "Purely frictional soil" and "Non-associated flow"; benchmarks, "c = 0
+soil" and "Relaxation length in rolling") and the key that tightens it.  The estimates are
+ranges measured on particular soils, not bounds.
+"""
+from __future__ import annotations
+
+import math
+
+__all__ = ["regularisation_summary", "cohesion_bias", "relaxation_bias", "COHESION_EXPONENT"]
+
+#: c_reg = 1 kPa against c = 0 exactly, phi = 40 deg (35 deg for pointwise gives the same range),
+#: Q_V at s/d = 0.02 / 0.05 / 0.1 on the fast wheel: B-bar +54 / +61 / +97 %, pointwise +52 / +39 / +60 %
+COHESION_BIAS_1KPA = (39.0, 97.0)
+#: the pointwise bias at c_reg = 0.5 / 1 / 2 kPa (means 31 / 50 / 83 %) grows as c_reg**0.71
+COHESION_EXPONENT = 0.71
+#: the c_reg range the cohesion bias was measured over (Pa)
+COHESION_MEASURED = (500.0, 2000.0)
+#: rolling: the bias of a relaxation length is first order, about 3 % per mm (clay, Q_V of a held
+#: sinkage: +1.2 / +3.0 / +4.9 % at 0.5 / 1 / 2 mm; case-5 soil at constant load: sinkage -1.5 / -3.1 %
+#: at 0.5 / 1 mm); on dense sand (case 13) smaller (+0.9 % per halving near 1 mm)
+RELAXATION_ROLLING_PER_MM = 3.0
+#: indentation of a c = 0 sand (phi = 40 deg, pointwise): length (mm) -> bias of Q_V at s/d = 0.1 (%)
+#: against the rate-independent 43.1 kN
+RELAXATION_INDENTATION = ((1 / 512, 15.0), (1 / 256, 25.0), (1 / 128, 29.0), (1 / 64, 43.0), (1 / 32, 63.0),
+                          (1 / 16, 96.0), (1 / 8, 145.0), (1 / 4, 218.0), (1.0, 520.0))
+
+
+def cohesion_bias(c_reg: float) -> tuple[tuple[float, float], bool]:
+    """Estimated rise of Q_V (%, low and high) from a regularising cohesion ``c_reg`` (Pa) in place
+    of c = 0, and whether ``c_reg`` lies in the measured range (outside it the power law is
+    extrapolated)."""
+    scale = (c_reg / 1e3) ** COHESION_EXPONENT
+    lo, hi = COHESION_BIAS_1KPA
+    return (lo * scale, hi * scale), COHESION_MEASURED[0] <= c_reg <= COHESION_MEASURED[1]
+
+
+def relaxation_bias(length: float, protocol: str) -> tuple[tuple[float, float], bool]:
+    """Estimated effect (%, low and high, as a magnitude) of a Duvaut-Lions relaxation ``length``
+    (m) on the run's result, and whether ``length`` lies in the measured range.  Rolling: first
+    order, from 0 to :data:`RELAXATION_ROLLING_PER_MM` per mm.  Indentation: interpolated in
+    log(length) in :data:`RELAXATION_INDENTATION` (c = 0 sand; soils with cohesion were not
+    measured)."""
+    mm = 1e3 * length
+    if protocol != "indentation":
+        return (0.0, RELAXATION_ROLLING_PER_MM * mm), 0.5 <= mm <= 4.0
+    lengths = [math.log(a) for a, _ in RELAXATION_INDENTATION]
+    biases = [b for _, b in RELAXATION_INDENTATION]
+    x = math.log(mm)
+    inside = lengths[0] <= x <= lengths[-1]
+    x = min(max(x, lengths[0]), lengths[-1])
+    k = next(i for i in range(1, len(lengths)) if x <= lengths[i])
+    w = (x - lengths[k - 1]) / (lengths[k] - lengths[k - 1])
+    return (0.0, biases[k - 1] + w * (biases[k] - biases[k - 1])), inside
+
+
+def regularisation_summary(protocol: str, *, regularised: dict, relaxation_length: float,
+                           plateau_tolerance: float, plateau_share: float) -> list[dict]:
+    """The ``model.regularisation`` entries of a run (empty when it solved the scene as stated).
+
+    protocol : loading protocol; regularised : ``{"soil.layers[i]": c_reg (Pa)}``;
+    relaxation_length : m; plateau_tolerance : accepted plateau / internal-force norm;
+    plateau_share : largest residual force an accepted plateau left, over that step's Q_V
+    """
+    quantity = "sinkage" if protocol == "rolling-constant-load" else "QV"
+    entries = []
+    for layer, c_reg in sorted(regularised.items()):
+        (lo, hi), measured = cohesion_bias(c_reg)
+        entries.append({
+            "kind": "regularising_cohesion", "key": "model.regularising_cohesion", "value": c_reg, "unit": "Pa",
+            "applies_to": layer,
+            "effect": {"quantity": "QV", "percent": [round(lo, 1), round(hi, 1)], "measured_range": measured,
+                       "basis": "Q_V raised: c = 0 against c_reg, phi = 35-40 deg, s/d = 0.02-0.1, indentation"},
+            "tighten": "lower model.regularising_cohesion; 0 keeps c = 0 exactly (slower)"})
+    if relaxation_length > 0:
+        (lo, hi), measured = relaxation_bias(relaxation_length, protocol)
+        sign = -1 if quantity == "sinkage" else 1
+        entries.append({
+            "kind": "duvaut_lions", "key": "model.relaxation_length", "value": relaxation_length, "unit": "m",
+            "applies_to": "soil",
+            "effect": {"quantity": quantity, "percent": sorted([round(sign * lo, 1) + 0.0, round(sign * hi, 1) + 0.0]),
+                       "measured_range": measured,
+                       "basis": ("first order in the length: clay and a c-phi soil about 3 % per mm, dense sand less"
+                                 if protocol != "indentation" else
+                                 "c = 0 sand, phi = 40 deg, Q_V at s/d = 0.1; soils with cohesion not measured")},
+            "tighten": "halve model.relaxation_length: the result should move by less than the accuracy needed"})
+    if plateau_share > 0:
+        entries.append({
+            "kind": "newton_plateaus", "key": "model.plateau_tolerance", "value": plateau_tolerance, "unit": "",
+            "applies_to": "Newton",
+            "effect": {"quantity": "QV", "percent": [round(-100 * plateau_share, 3), round(100 * plateau_share, 3)],
+                       "measured_range": True,
+                       "basis": "largest out-of-balance force an accepted plateau left, over that step's Q_V"},
+            "tighten": "lower model.plateau_tolerance; 0 cuts the step instead"})
+    return entries
