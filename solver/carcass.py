@@ -42,6 +42,9 @@ log = get_logger("solver")
 NEWTON_RTOL = 1e-10
 NEWTON_STOL = 1e-9
 NEWTON_MAX_IT = 25
+#: quadrature degree of the contact-area integral: the points in contact are counted, so their
+#: spacing (about h / 7 on a quadratic facet at degree 12) sets the step of the area's jumps
+AREA_QUADRATURE_DEGREE = 12
 
 
 @dataclass(frozen=True)
@@ -123,9 +126,15 @@ class Carcass:
             self._ground_pressure = self.kappa * ufl.max_value(ground - x[2] - self.u[2], 0.0)
             self._contact = ds(tuple(ids))
             residual = residual - self._ground_pressure * v[2] * self._contact
-            touching = ufl.conditional(ufl.gt(self._ground_pressure, 0.0), 1.0, 0.0)
             self._ground_force_form = fem.form(self._ground_pressure * self._contact)
-            self._contact_area_form = fem.form(touching * self._contact)
+            # the patch in the current configuration (Nanson: da = J |F^-T N| dA), sampled finely
+            # so that its edge moves smoothly as the points cross it
+            touching = ufl.conditional(ufl.gt(self._ground_pressure, 0.0), 1.0, 0.0)
+            stretch = ufl.det(F) * ufl.sqrt(ufl.dot(ufl.dot(ufl.inv(F).T, ufl.FacetNormal(msh)),
+                                                    ufl.dot(ufl.inv(F).T, ufl.FacetNormal(msh))))
+            fine = ufl.Measure("ds", domain=msh, subdomain_data=tagged.facet_tags,
+                               metadata={"quadrature_degree": AREA_QUADRATURE_DEGREE})(tuple(ids))
+            self._contact_area_form = fem.form(touching * stretch * fine)
         self._R = fem.form(residual)
         self._J = fem.form(ufl.derivative(residual, self.u, ufl.TrialFunction(V)))
         self.bcs = self._boundary_conditions(clamped_facets)
@@ -241,7 +250,7 @@ class Carcass:
         return self._assemble(self._ground_force_form)
 
     def contact_area(self) -> float:
-        """Reference area of the contact facets pressed into the ground, m^2."""
+        """Current area of the contact facets pressed into the ground, m^2."""
         if self.ground is None:
             return 0.0
         return self._assemble(self._contact_area_form)

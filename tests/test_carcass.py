@@ -169,6 +169,33 @@ def test_thin_carcass_bends_without_locking(comm):
     assert tip[1] < 0.2 * beam
 
 
+def test_contact_area_is_the_current_area_of_the_pressed_face(comm):
+    """A block pushed onto the rigid ground by a pressure on its top (0.3 E: large strain) deforms
+    homogeneously: it spreads sideways (symmetry planes x = 0, y = 0, the other sides free), so the
+    face on the ground and the top have the same current area, which carries the ground force:
+    contact area = ground force / p, about 20 % larger than the reference face."""
+    from dolfinx import mesh as dmesh
+
+    from rollsim.geometry.mesh import TaggedMesh
+    msh = dmesh.create_box(comm, [np.zeros(3), np.ones(3)], [2, 2, 2], dmesh.CellType.hexahedron)
+    cells = np.arange(msh.topology.index_map(3).size_local, dtype=np.int32)
+    names = {"outer_surface": 1, "top": 2, "symmetry_x": 3, "symmetry_y": 4}
+    where = {1: lambda x: np.isclose(x[2], 0.0), 2: lambda x: np.isclose(x[2], 1.0),
+             3: lambda x: np.isclose(x[0], 0.0), 4: lambda x: np.isclose(x[1], 0.0)}
+    found = {tag: dmesh.locate_entities_boundary(msh, 2, test) for tag, test in where.items()}
+    facets = np.concatenate(list(found.values()))
+    values = np.concatenate([np.full(len(f), tag, dtype=np.int32) for tag, f in found.items()])
+    order = np.argsort(facets)
+    body = TaggedMesh(msh, dmesh.meshtags(msh, 3, cells, np.ones_like(cells)),
+                      dmesh.meshtags(msh, 2, facets[order], values[order]), {"block": 1}, names, None)
+    p = 0.3 * E
+    carcass = Carcass(body, NeoHookean(E, NU), pressure_facets=("top",), clamped_facets=(), ground=1e-6)
+    carcass.inflate(p)
+    area, load = carcass.contact_area(), carcass.ground_force()
+    assert area == pytest.approx(load / p, rel=1e-6)
+    assert area > 1.1                                   # measured 1.205; the reference face: 1 m^2
+
+
 @pytest.mark.slow
 def test_inflated_tire_on_rigid_ground_carries_more_load_at_higher_pressure(comm):
     """The tire (half model, coarse) inflated clear of a rigid flat ground, then its hub lowered to a
