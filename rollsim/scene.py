@@ -13,9 +13,9 @@ from dataclasses import dataclass
 
 from rollsim.files import read_toml
 from rollsim.log import get_logger
-from rollsim.solver.options import (ACCURACIES, DEFAULT_ACCURACY, DEFAULT_KINEMATICS, DEFAULT_LINEAR_SOLVER,
-                                    DEFAULT_MATCH, DEFAULT_REGULARISING_COHESION, DEFAULT_RELAXATION_LENGTH,
-                                    DEFAULT_VOLUMETRIC_STRAIN, KINEMATICS, LINEAR_SOLVERS, MATCHES, PLATEAU_RTOL,
+from rollsim.solver.options import (ACCURACIES, ACCURACY_REFINEMENT, DEFAULT_ACCURACY, DEFAULT_KINEMATICS,
+                                    DEFAULT_LINEAR_SOLVER, DEFAULT_MATCH, DEFAULT_REGULARISING_COHESION,
+                                    DEFAULT_RELAXATION_LENGTH, DEFAULT_VOLUMETRIC_STRAIN, KINEMATICS, LINEAR_SOLVERS, MATCHES, PLATEAU_RTOL,
                                     PROTOCOLS, VOLUMETRIC_STRAINS, default_volumetric_strain)
 from rollsim.units import (ANGLE, DIMENSIONLESS, FORCE, LENGTH, PRESSURE, UNIT_WEIGHT, InputError, Kind,
                            to_si)
@@ -80,12 +80,24 @@ class ModelSpec:
     """``[model]``: the solver options (choices and defaults: ``rollsim.solver.options``)."""
 
     accuracy: str = DEFAULT_ACCURACY
+    refinement: float | None = None   # elements per wheel diameter under the wheel; None: the preset's
     kinematics: str = DEFAULT_KINEMATICS
     linear_solver: str = DEFAULT_LINEAR_SOLVER
     volumetric_strain: str = DEFAULT_VOLUMETRIC_STRAIN   # parse_scene: default_volumetric_strain(protocol, accuracy)
     relaxation_length: float = DEFAULT_RELAXATION_LENGTH   # m of the wheel's path; > 0: Duvaut-Lions
     regularising_cohesion: float = DEFAULT_REGULARISING_COHESION   # Pa in place of c = 0; 0: c stays 0
     plateau_tolerance: float = PLATEAU_RTOL   # Newton plateaus accepted below this x |F_internal|; 0: never
+
+    @property
+    def elements_per_d(self) -> float:
+        """Elements per wheel diameter in the refined zone: ``refinement`` if given, else the
+        ``accuracy`` preset's."""
+        return self.refinement if self.refinement is not None else ACCURACY_REFINEMENT[self.accuracy]
+
+    @property
+    def mesh_name(self) -> str:
+        """The mesh in words: the preset, or the elements per d that replace it."""
+        return self.accuracy if self.refinement is None else f"{self.refinement:g} elements per d"
 
 
 @dataclass(frozen=True)
@@ -130,7 +142,7 @@ PLAUSIBLE = {
     "c": (0.0, 1e9, 0.0, 2e6), "c_dp": (0.0, 2e9, 0.0, 4e6), "max_sinkage": (1e-6, 5.0, 1e-3, 0.5),
     "load": (1.0, 1e8, 100.0, 2e6), "travel": (1e-3, 1000.0, 0.01, 50.0),
     "relaxation_length": (0.0, 10.0, 0.0, 0.01), "regularising_cohesion": (0.0, 1e6, 0.0, 10e3),
-    "plateau_tolerance": (0.0, 0.1, 0.0, 0.01),
+    "plateau_tolerance": (0.0, 0.1, 0.0, 0.01), "refinement": (2.0, 200.0, 6.0, 50.0),
 }
 
 
@@ -138,12 +150,12 @@ def _check_plausible(key: str, name: str, value: float, kind: Kind, notes: list)
     """Refuse ``value`` outside the hard range of :data:`PLAUSIBLE`; outside the typical one, add a
     warning to ``notes`` (logged once the whole scene is valid)."""
     lo, hi, typical_lo, typical_hi = PLAUSIBLE[name]
-    unit = kind.si_unit.replace("**", "^")
+    unit = f" {kind.si_unit}".replace("**", "^").rstrip()
     if not lo <= value <= hi:
-        raise InputError(key, f"{value:g} {unit} is outside the plausible range {lo:g} to {hi:g} {unit} "
+        raise InputError(key, f"{value:g}{unit} is outside the plausible range {lo:g} to {hi:g}{unit} "
                          "(a unit slip?)")
     if not typical_lo <= value <= typical_hi:
-        notes.append(f"{key} = {value:g} {unit} is outside the typical range {typical_lo:g} to {typical_hi:g} {unit}")
+        notes.append(f"{key} = {value:g}{unit} is outside the typical range {typical_lo:g} to {typical_hi:g}{unit}")
 
 
 class _Table:
@@ -311,8 +323,9 @@ def parse_scene(data: dict) -> Scene:
     loading = _loading(sections["loading"], wheel)
     model_table = _Table(top.raw("model", {}), "model", top.notes)
     accuracy = model_table.choice("accuracy", ACCURACIES, default=DEFAULT_ACCURACY)
-    strain = default_volumetric_strain(loading.protocol, accuracy)
-    model = ModelSpec(accuracy=accuracy,
+    refinement = model_table.quantity("refinement", DIMENSIONLESS, default=None)
+    strain = default_volumetric_strain(loading.protocol, accuracy, refinement)
+    model = ModelSpec(accuracy=accuracy, refinement=refinement,
                       kinematics=model_table.choice("kinematics", KINEMATICS, default=DEFAULT_KINEMATICS),
                       linear_solver=model_table.choice("linear_solver", LINEAR_SOLVERS, default=DEFAULT_LINEAR_SOLVER),
                       volumetric_strain=model_table.choice("volumetric_strain", VOLUMETRIC_STRAINS, default=strain),

@@ -49,8 +49,11 @@ DEFAULT_RELAXATION_LENGTH = 0.0
 PLATEAU_RTOL = 1e-3
 
 
-def default_volumetric_strain(protocol: str, accuracy: str = DEFAULT_ACCURACY) -> str:
-    """The scene default of ``[model] volumetric_strain`` for a loading protocol and mesh preset.
+def default_volumetric_strain(protocol: str, accuracy: str = DEFAULT_ACCURACY,
+                              refinement: float | None = None) -> str:
+    """The scene default of ``[model] volumetric_strain`` for a loading protocol and mesh preset
+    (or ``refinement``, elements per d, when the scene sets it: up to the fast preset's 8 it counts
+    as ``fast``).
 
     Indentation: B-bar ("cell-average"), which removes the locking of the P2 tetrahedra (the
     standard and accurate presets agree within 3 %).  Rolling: B-bar on the standard and accurate
@@ -61,7 +64,8 @@ def default_volumetric_strain(protocol: str, accuracy: str = DEFAULT_ACCURACY) -
     at 10 per d.  On the fast mesh (8 per d) neither is within 10 % on both soils (pointwise -12
     to -27 %, B-bar 0 to +23 %), and pointwise costs 2-4.5x less and needs no regularisation with
     friction: it stays the screening default there."""
-    if protocol == "indentation" or accuracy != "fast":
+    coarse = accuracy == "fast" if refinement is None else refinement <= ACCURACY_REFINEMENT["fast"]
+    if protocol == "indentation" or not coarse:
         return "cell-average"
     return "pointwise"
 

@@ -90,7 +90,7 @@ def plot_force_sinkage(path: pathlib.Path, rows, scene, status: str) -> None:
     s = [0.0] + [r["sinkage_m"] for r in rows]
     q = [0.0] + [r["QV_N"] / 1e3 for r in rows]
     fig, ax = plt.subplots(figsize=(6, 4.2))
-    ax.plot(s, q, "o-", ms=3, label=f"FE indentation ({scene.model.accuracy})")
+    ax.plot(s, q, "o-", ms=3, label=f"FE indentation ({scene.model.mesh_name})")
     ax.set_xlabel("sinkage s (m)")
     ax.set_ylabel("Q_V (kN)")
     ax.grid(alpha=0.3)

@@ -166,10 +166,11 @@ def _layer_thicknesses(scene) -> tuple[float, ...]:
 
 
 def indentation_mesh(scene, comm: MPI.Comm):
-    """Quarter indentation block for the scene (layers from the scene, accuracy preset)."""
+    """Quarter indentation block for the scene (layers from the scene, the elements per d of its
+    ``[model]``)."""
     d = scene.wheel.diameter
     block = indentation_block(d, depth=block_depth(scene), cut="quarter", layers=_layer_thicknesses(scene))
-    return build_soil_block(comm, block, MeshOptions.from_accuracy(d, scene.model.accuracy))
+    return build_soil_block(comm, block, MeshOptions.from_refinement(d, scene.model.elements_per_d))
 
 
 def rolling_mesh(scene, comm: MPI.Comm, *, length: float | None = None, half_width: float = 1.5,
@@ -182,7 +183,7 @@ def rolling_mesh(scene, comm: MPI.Comm, *, length: float | None = None, half_wid
     block = rolling_block(d, length=length, half_width=half_width,
                           depth=block_depth(scene) if depth is None else depth, cut="half",
                           layers=_layer_thicknesses(scene), stiff_length=stiff_length)
-    return build_soil_block(comm, block, MeshOptions.from_accuracy(d, scene.model.accuracy))
+    return build_soil_block(comm, block, MeshOptions.from_refinement(d, scene.model.elements_per_d))
 
 
 def wheel_geometry(spec):

@@ -54,6 +54,7 @@ from rollsim.files import atomic_write_text, read_text, read_toml
 from rollsim.log import get_logger
 from rollsim.mpi import root_block
 from rollsim.scene import Scene, parse_scene
+from rollsim.solver.options import ACCURACY_REFINEMENT
 from rollsim.units import FORCE, InputError, to_si
 
 log = get_logger("study")
@@ -61,6 +62,19 @@ RUNNERS = ("analytic", "fe")
 FE_COST_HINT = {("indentation", "fast"): "about 1 minute", ("indentation", "standard"): "10-30 minutes",
                 ("indentation", "accurate"): "hours", ("rolling", "fast"): "10-20 minutes",
                 ("rolling", "standard"): "hours", ("rolling", "accurate"): "days"}
+#: the cost of a run grows about as (elements per d)**COST_EXPONENT (rolling levels 8-12: 3.7-5)
+COST_EXPONENT = 4.0
+
+
+def _cost_hint(protocol: str, accuracy: str, refinement: float | None) -> str:
+    """The :data:`FE_COST_HINT` of a preset, or for ``refinement`` elements per d its ratio to the
+    fast preset's cost."""
+    if refinement is None:
+        return FE_COST_HINT[protocol, accuracy]
+    ratio = (refinement / ACCURACY_REFINEMENT["fast"]) ** COST_EXPONENT
+    return f"about {ratio:.2g}x the fast preset's {FE_COST_HINT[protocol, 'fast']}"
+
+
 _INDEX = re.compile(r"^([A-Za-z_]\w*)(?:\[(\d+)\])?$")
 
 
@@ -531,7 +545,8 @@ def dry_run_lines(study: Study) -> list[str]:
     if study.runner == "analytic":
         lines.append("estimated cost: well under a second per case (bearing-capacity model)")
     else:
-        kinds = sorted({(c.scene.loading.protocol.split("-")[0], c.scene.model.accuracy) for c in study.cases})
+        kinds = sorted({(c.scene.loading.protocol.split("-")[0], c.scene.model.mesh_name, c.scene.model.refinement,
+                         c.scene.model.accuracy) for c in study.cases}, key=str)
         lines.append("estimated cost per case on 2 cores (development machine): "
-                     + ", ".join(f"{p} at {a}: {FE_COST_HINT[p, a]}" for p, a in kinds))
+                     + ", ".join(f"{p} at {name}: {_cost_hint(p, accuracy, n)}" for p, name, n, accuracy in kinds))
     return lines

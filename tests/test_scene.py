@@ -64,6 +64,10 @@ def test_si_conversion_and_defaults():
     assert parse_scene(rolling).model.volumetric_strain == "cell-average"     # rolling, standard: B-bar
     rolling["model"]["accuracy"] = "fast"
     assert parse_scene(rolling).model.volumetric_strain == "pointwise"        # rolling, fast: pointwise
+    rolling["model"]["refinement"] = 12                                        # elements per d, over the preset
+    finer = parse_scene(rolling).model
+    assert finer.elements_per_d == 12 and finer.volumetric_strain == "cell-average" and finer.accuracy == "fast"
+    assert finer.mesh_name == "12 elements per d" and scene.model.elements_per_d == 20    # standard preset
     assert parse_scene(with_change("model.relaxation_length", "0.01 mm")).model.relaxation_length == pytest.approx(1e-5)
     assert scene.model.regularising_cohesion == 1e3                 # in place of c = 0; 0 keeps c = 0
     assert parse_scene(with_change("model.regularising_cohesion", 0)).model.regularising_cohesion == 0
@@ -99,6 +103,8 @@ def test_si_conversion_and_defaults():
     ("model.regularising_cohesion", "-1 kPa", "model.regularising_cohesion"),
     ("model.plateau_tolerance", -1e-3, "model.plateau_tolerance"),
     ("model.plateau_tolerance", 0.5, "model.plateau_tolerance"),
+    ("model.refinement", 1, "model.refinement"),
+    ("model.refinement", "12 mm", "model.refinement"),
 ])
 def test_bad_scene_one_line_exit_2(tmp_path, capsys, path, value, field):
     scene = tmp_path / "scene.toml"

@@ -211,6 +211,10 @@ def test_set_applies_to_every_case_without_naming_it(tmp_mpi_path):
                                       + GRID.split("\n", 2)[2]))
     assert all(c.scene.model.accuracy == "fast" and c.name.startswith("E=") for c in study.cases)
     assert {c.scene.wheel.friction for c in study.cases} == {0.4, 0.8}  # the sweep wins over [set]
+    finer = st.load_study(write_study(tmp_mpi_path, 'runner = "fe"\n[set]\n"model.refinement" = 12\n' + GRID.split("\n", 2)[2],
+                                      name="finer.toml"))
+    assert all(c.scene.model.elements_per_d == 12 for c in finer.cases)
+    assert "at 12 elements per d: about 5.1x the fast preset's" in st.dry_run_lines(finer)[-1]
 
 
 @pytest.mark.parametrize("name", sorted(p.name for p in (ROOT / "studies" / "examples").glob("*.toml")))

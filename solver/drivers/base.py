@@ -95,7 +95,7 @@ class ProtocolRun:
             sc = self.scene
             log.info("%s: %s wheel d = %g m, mu = %g, %d layer(s), %s mesh: %d cells, %d dofs, %s strain, "
                      "%d rank(s)%s", sc.loading.protocol, sc.wheel.shape, self.d, sc.wheel.friction,
-                     len(self.soil.by_layer), sc.model.accuracy, self.tagged.stats.cells, self.wheel_run.n_dofs,
+                     len(self.soil.by_layer), sc.model.mesh_name, self.tagged.stats.cells, self.wheel_run.n_dofs,
                      self.wheel_run.problem.volumetric_strain, self.comm.size, f"; {loading}" if loading else "")
 
     def record(self, st, travel: float, field_time: float) -> None:
@@ -138,7 +138,8 @@ class ProtocolRun:
         run = self.wheel_run
         ct = run.contact
         model = {"symmetry": {4: "quarter", 2: "half", 1: "full"}[run.factor], "symmetry_factor": run.factor,
-                 "accuracy": self.scene.model.accuracy, "displacement_degree": run.problem.degree,
+                 "accuracy": self.scene.model.accuracy, "elements_per_d": self.scene.model.elements_per_d,
+                 "displacement_degree": run.problem.degree,
                  "kinematics": run.problem.kinematics, "linear_solver": run.problem.linear_solver,
                  "volumetric_strain": run.problem.volumetric_strain,
                  "contact": {"method": "penalty", "alpha": ct.alpha, "kappa_Pa_per_m": ct.kappa, "h_m": ct.h,
