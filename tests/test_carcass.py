@@ -214,7 +214,9 @@ def test_inflated_tire_on_rigid_ground_carries_more_load_at_higher_pressure(comm
         records = carcass.press(deflection,
                                 on_step=lambda: {"Q": 2 * carcass.ground_force(), "A": 2 * carcass.contact_area()})
         pressed = [r.data for r in records if r.data["Q"] > 0]
-        assert len(pressed) >= 3 and all(b["A"] >= a["A"] for a, b in zip(pressed, pressed[1:]))
+        # the patch grows as the hub goes down (counted at points: steps of up to 1 % back measured)
+        assert len(pressed) >= 3 and all(b["A"] >= 0.98 * a["A"] for a, b in zip(pressed, pressed[1:]))
+        assert pressed[-1]["A"] > 5 * pressed[0]["A"]
         last = pressed[-1]
         assert 0.05 < 1 - pressure * last["A"] / last["Q"] < 0.9           # the carcass's share
         penetration = ground - carcass.lowest_point()
