@@ -112,8 +112,10 @@ class Carcass:
         internal = sum(ufl.inner(mat.first_piola(F), ufl.grad(v)) * (dx if tag is None else dx(tag))
                        for tag, mat in materials.items())
         self._surface = ds(tuple(names[name] for name in pressure_facets))
-        #: force of the gas on the body per unit reference area: -p J F^-T N (Nanson)
-        self._traction = -self.pressure * ufl.det(F) * ufl.dot(ufl.inv(F).T, ufl.FacetNormal(msh))
+        # Nanson: the current area vector of a reference facet, da n = J F^-T N dA
+        area_vector = ufl.det(F) * ufl.dot(ufl.inv(F).T, ufl.FacetNormal(msh))
+        #: force of the gas on the body per unit reference area: -p J F^-T N
+        self._traction = -self.pressure * area_vector
         residual = internal - ufl.dot(self._traction, v) * self._surface
         self.hub = fem.Constant(msh, np.zeros(3, dtype=PETSc.ScalarType))     # m, set_hub()
         self.ground, self.kappa = ground, 0.0
@@ -127,11 +129,10 @@ class Carcass:
             self._contact = ds(tuple(ids))
             residual = residual - self._ground_pressure * v[2] * self._contact
             self._ground_force_form = fem.form(self._ground_pressure * self._contact)
-            # the patch in the current configuration (Nanson: da = J |F^-T N| dA), sampled finely
-            # so that its edge moves smoothly as the points cross it
+            # the patch in the current configuration (da = |J F^-T N| dA), sampled finely so that
+            # its edge moves smoothly as the points cross it
             touching = ufl.conditional(ufl.gt(self._ground_pressure, 0.0), 1.0, 0.0)
-            stretch = ufl.det(F) * ufl.sqrt(ufl.dot(ufl.dot(ufl.inv(F).T, ufl.FacetNormal(msh)),
-                                                    ufl.dot(ufl.inv(F).T, ufl.FacetNormal(msh))))
+            stretch = ufl.sqrt(ufl.dot(area_vector, area_vector))
             fine = ufl.Measure("ds", domain=msh, subdomain_data=tagged.facet_tags,
                                metadata={"quadrature_degree": AREA_QUADRATURE_DEGREE})(tuple(ids))
             self._contact_area_form = fem.form(touching * stretch * fine)
