@@ -20,7 +20,7 @@ def benchmarks(monkeypatch):
 
 def _level(refinement, sinkage, **extra):
     return {"soil": "case5", "strain": "cell-average", "refinement": refinement, "ranks": 1, "dofs": 100,
-            "steady": True, "steps": 10, "newton_iterations": 50, "cuts": 0, "time_s": 1.0,
+            "steady": True, "s_cl": sinkage + 1e-3, "steps": 10, "newton_iterations": 50, "cuts": 0, "time_s": 1.0,
             "settled": {"sinkage_mean": sinkage, "sinkage_std": 1e-4}, **extra}
 
 
@@ -55,6 +55,21 @@ def test_rolling_convergence_resumes_and_keeps_regularised_runs_apart(benchmarks
     assert solved == [(3.6, 2.5)]
     longer = _level(6.0, 0.019, relaxation_length_mm=0.0, block_length_d=3.6, travel_d=2.5)
     assert convergence.formulation(longer) == "cell-average, 3.6 d block, 2.5 d travel"
+
+
+@pytest.mark.serial
+def test_rolling_convergence_scores_the_steady_sinkage_when_every_level_settled(benchmarks):
+    """Levels that all detected a steady state are scored by it (s_cl = mean + 1 mm here); one
+    level without one makes the whole group fall back to the mean from 1 d."""
+    convergence, _ = benchmarks
+    levels = [_level(n, s) for n, s in ((6.0, 0.012), (8.0, 0.016), (10.0, 0.017))]
+    rows = [line for line in convergence.table(levels).splitlines() if line.startswith("| case5")]
+    assert all("| steady |" in row for row in rows)                     # 18 / 17 mm: +5.9 %, not 17 / 16: +6.2 %
+    assert f"{100 * (18 / 17 - 1):+.1f} %" in rows[2] and f"{100 * (17 / 16 - 1):+.1f} %" not in rows[2]
+    levels[1]["steady"] = False
+    rows = [line for line in convergence.table(levels).splitlines() if line.startswith("| case5")]
+    assert all("| mean from 1 d |" in row for row in rows) and "| not detected |" in rows[1]
+    assert f"{100 * (17 / 16 - 1):+.1f} %" in rows[2]
 
 
 @pytest.mark.serial
