@@ -25,6 +25,7 @@ Protocols
 """
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 import pathlib
@@ -52,6 +53,9 @@ __all__ = ["WheelIndentation", "IndentationStep", "LoadControlResult", "symmetry
 log = get_logger("solver")
 
 #: Pseudo-time control of one push leg (t in [0, 1] spans the leg's sinkage range).
+#: sinkage over which a fallback relaxation acts after a failure, in wheel diameters
+RELAXATION_STRETCH = 0.005
+
 DEFAULT_STEP_CONTROL = StepControl(t_end=1.0, dt=0.1, dt_min=1e-4, dt_max=0.25, easy_iterations=8, max_cuts=10)
 
 #: Added to the solver defaults: MUMPS null-pivot detection, so that a tangent made singular by
@@ -120,7 +124,9 @@ class WheelIndentation:
     pseudo-time: a step that changes the sinkage by ``ds`` has ``r = ds / relaxation_length``
     (see :func:`~rollsim.solver.return_map.duvaut_lions`; the gravity step stays rate-independent);
     ``plateau_rtol``: Newton plateaus accepted below this fraction of the internal-force norm
-    (default :data:`~rollsim.solver.options.PLATEAU_RTOL`; 0: never).
+    (default :data:`~rollsim.solver.options.PLATEAU_RTOL`; 0: never); ``relaxation_fallback`` (m,
+    0: off): the relaxation length :meth:`push` falls back to over a stretch of sinkage when
+    Newton fails on the unregularised soil.
     """
 
     def __init__(self, tagged, wheel, material, *, gamma: float = 0.0, K0: float | None = None,
@@ -128,8 +134,14 @@ class WheelIndentation:
                  petsc_options: dict | None = None, degree: int = 2, contact_ids=None,
                  quadrature_degree: int = 6, smoothing: float = 0.0, kinematics: str = "small-strain",
                  linear_solver: str = "auto", volumetric_strain: str = DEFAULT_VOLUMETRIC_STRAIN,
-                 relaxation_length: float = 0.0, plateau_rtol: float | None = None):
+                 relaxation_length: float = 0.0, plateau_rtol: float | None = None,
+                 relaxation_fallback: float = 0.0):
         self.relaxation_length = check_relaxation_length(relaxation_length)
+        self.relaxation_fallback = check_relaxation_length(relaxation_fallback)
+        #: sinkage over which a fallback relaxation acts after a failure, m
+        self.relaxation_stretch = RELAXATION_STRETCH * wheel.diameter
+        #: ``(from, to)`` sinkage (m) of each stretch the fallback relaxed
+        self.relaxed_spans: list[tuple[float, float]] = []
         self.tagged = tagged
         msh = tagged.mesh
         self.comm = msh.comm
@@ -300,37 +312,72 @@ class WheelIndentation:
     def push(self, max_sinkage: float, control: StepControl | None = None, stops=(),
              on_step: Callable[[IndentationStep], None] | None = None) -> list[IndentationStep]:
         """Displacement control from the current sinkage to ``max_sinkage`` (m), landing exactly on
-        every sinkage in ``stops``; ``on_step(step)`` after each converged step.  Raises
-        ``SolverDivergedError`` (state restored to the last converged step) on failure."""
+        every sinkage in ``stops``; ``on_step(step)`` after each converged step.
+
+        When Newton diverges after step cutting and the soil is not regularised already
+        (``relaxation_length = 0``), a ``relaxation_fallback`` > 0 relaxes the soil (Duvaut-Lions,
+        that length) over the next ``relaxation_stretch`` of sinkage from the last converged step,
+        then the rate-independent push goes on; each such stretch is kept in :attr:`relaxed_spans`.
+        Raises ``SolverDivergedError`` (state restored to the last converged step) when that does
+        not help, without a fallback, or on a guard (wall time, iterations, signal)."""
         control = control or DEFAULT_STEP_CONTROL
+        deadline = time.perf_counter() + control.max_wall_time
+
+        def remaining() -> StepControl:     # the wall-time guard holds for the whole push
+            return dataclasses.replace(control, max_wall_time=max(deadline - time.perf_counter(), 1e-3))
+
         targets = sorted({float(s) for s in stops if self.sinkage < s < max_sinkage} | {float(max_sinkage)})
         for target in targets:
-            s0 = self.sinkage
-            span = target - s0
-            if span <= 0:
-                continue
-            n_before = len(self.steps)
-
-            def on_t(t):
-                st = self._record()
-                if on_step is not None:
-                    on_step(st)
-                return {"QV": st.QV, "sinkage": st.sinkage}
-
-            def set_load(t, s0=s0, span=span):
-                self._attempts += 1
-                self._sink_to(s0 + span * t)
-
-            try:
-                hist = solve_load_path(self.problem, set_load, control, on_t)
-            except SolverDivergedError as err:
-                self._absorb(err.history, n_before)
-                self.set_sinkage(self.sinkage)
-                raise
-            finally:
-                self.problem.relaxation = math.inf
-            self._absorb(hist, n_before)
+            while target - self.sinkage > 1e-12 * max(abs(target), 1e-3):
+                try:
+                    self._push_to(target, remaining(), on_step)
+                except SolverDivergedError as err:
+                    if not self._may_relax(err):
+                        raise
+                    start = self.sinkage
+                    end = min(target, start + self.relaxation_stretch)
+                    log.warning("Newton failed at s = %.5g m: the soil is relaxed (Duvaut-Lions, %.3g mm) up to "
+                                "s = %.5g m, then the rate-independent push goes on", start,
+                                1e3 * self.relaxation_fallback, end)
+                    self.relaxation_length = self.relaxation_fallback
+                    try:
+                        self._push_to(end, remaining(), on_step)
+                    finally:
+                        self.relaxation_length = 0.0
+                    self.relaxed_spans.append((start, self.sinkage))
         return self.steps
+
+    def _may_relax(self, err: SolverDivergedError) -> bool:
+        """Whether the failure ``err`` of an unregularised push may be retried relaxed: Newton
+        diverged (not a guard or a signal) and a fallback length is set."""
+        return (self.relaxation_fallback > 0 and self.relaxation_length == 0
+                and not isinstance(err, RunInterrupted) and str(err).startswith("Newton diverged"))
+
+    def _push_to(self, target: float, control: StepControl, on_step) -> None:
+        """One displacement-controlled path from the current sinkage to ``target`` (m)."""
+        s0 = self.sinkage
+        span = target - s0
+        n_before = len(self.steps)
+
+        def on_t(t):
+            st = self._record()
+            if on_step is not None:
+                on_step(st)
+            return {"QV": st.QV, "sinkage": st.sinkage}
+
+        def set_load(t):
+            self._attempts += 1
+            self._sink_to(s0 + span * t)
+
+        try:
+            hist = solve_load_path(self.problem, set_load, control, on_t)
+        except SolverDivergedError as err:
+            self._absorb(err.history, n_before)
+            self.set_sinkage(self.sinkage)
+            raise
+        finally:
+            self.problem.relaxation = math.inf
+        self._absorb(hist, n_before)
 
     def _record(self) -> IndentationStep:
         """Append the current (just committed) state as a step."""

@@ -305,6 +305,11 @@ class WheelRolling:
         return self._ind.relaxation_length
 
     @property
+    def relaxed_spans(self) -> list[tuple[float, float]]:
+        """Sinkage stretches (m) the press relaxed after a failure (see ``WheelIndentation.push``)."""
+        return self._ind.relaxed_spans
+
+    @property
     def cuts(self) -> int:
         return int(sum(st.cuts for st in self.steps))
 

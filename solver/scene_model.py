@@ -18,6 +18,7 @@ from .materials import PHI_COMPRESSION_MATCH_LIMIT, DruckerPrager, VonMises, mc_
 from .options import DEFAULT_REGULARISING_COHESION, MATCHING
 
 __all__ = ["layer_material", "layer_materials", "frictional_layers", "regularised_layers", "scene_penalty",
+           "solver_options",
            "FRICTIONAL_PENALTY", "relaxation_hint", "non_associated", "wheel_geometry", "block_depth",
            "indentation_mesh", "rolling_mesh", "SoilMaterials", "layer_materials"]
 
@@ -124,6 +125,17 @@ def scene_penalty(scene, penalty: float | None) -> float | None:
     log.info("purely frictional layer(s) %s: contact penalty alpha = %g (pass penalty to override)",
              ", ".join(frictional), FRICTIONAL_PENALTY)
     return FRICTIONAL_PENALTY
+
+
+def solver_options(scene, *, penalty: float | None = None, petsc_options: dict | None = None) -> dict:
+    """Keywords of the wheel classes (``WheelIndentation``, ``WheelRolling``) for ``scene``: its unit
+    weight and wheel friction, the penalty of :func:`scene_penalty` and the ``[model]`` options."""
+    model = scene.model
+    return dict(gamma=scene.soil.gamma, friction=scene.wheel.friction, petsc_options=petsc_options,
+                penalty=scene_penalty(scene, penalty), kinematics=model.kinematics,
+                linear_solver=model.linear_solver, volumetric_strain=model.volumetric_strain,
+                relaxation_length=model.relaxation_length, relaxation_fallback=model.relaxation_fallback,
+                plateau_rtol=model.plateau_tolerance)
 
 
 #: Duvaut-Lions relaxation length the failure hint suggests, by protocol (m of the wheel's path):

@@ -3,7 +3,7 @@ import math
 
 import pytest
 
-from rollsim.solver.regularisation import (COHESION_EXPONENT, RELAXATION_INDENTATION, cohesion_bias,
+from rollsim.solver.regularisation import (COHESION_EXPONENT, FALLBACK_BIAS, RELAXATION_INDENTATION, cohesion_bias,
                                            regularisation_summary, relaxation_bias)
 
 #: Q_V (kN) at s/d = 0.02 / 0.05 / 0.1 on the fast wheel, pointwise, phi = 40 deg (docs/benchmarks.md,
@@ -52,3 +52,19 @@ def test_regularisation_summary_lists_what_was_applied():
     assert relax["quantity"] == "sinkage" and relax["percent"] == [-1.5, 0.0]    # less sinkage
     assert kinds["newton_plateaus"]["effect"]["percent"] == [-0.02, 0.02]
     assert all(e["tighten"].startswith(("lower", "halve")) and e["key"].startswith("model.") for e in entries)
+
+
+def test_fallback_relaxation_is_listed_with_its_stretches():
+    """A run the fallback relaxed lists each stretch; a run it did not relax lists nothing."""
+    assert regularisation_summary("indentation", regularised={}, relaxation_length=0.0, plateau_tolerance=1e-3,
+                                  plateau_share=0.0, relaxation_fallback=1e-5, relaxed_spans=[]) == []
+    (entry,) = regularisation_summary("indentation", regularised={}, relaxation_length=0.0, plateau_tolerance=1e-3,
+                                      plateau_share=0.0, relaxation_fallback=1e-5,
+                                      relaxed_spans=[(0.01, 0.0176), (0.03, 0.0376)])
+    assert entry["kind"] == "duvaut_lions_fallback" and entry["key"] == "model.relaxation_fallback"
+    assert entry["value"] == 1e-5 and entry["effect"]["measured_range"]
+    assert entry["applies_to"] == "soil, over s = 0.01-0.0176 m, s = 0.03-0.0376 m"
+    assert entry["effect"]["percent"] == list(FALLBACK_BIAS) and entry["tighten"].startswith("halve")
+    assert not regularisation_summary("indentation", regularised={}, relaxation_length=0.0, plateau_tolerance=1e-3,
+                                      plateau_share=0.0, relaxation_fallback=1e-3,
+                                      relaxed_spans=[(0.01, 0.02)])[0]["effect"]["measured_range"]

@@ -91,6 +91,8 @@ def test_c0_indentation_scene_without_regularising_cohesion(comm, tmp_mpi_path):
         assert model["contact"]["alpha"] == 1.0
         kinds = {e["kind"]: e for e in model["regularisation"]}
         assert "regularising_cohesion" not in kinds and ("duvaut_lions" in kinds) == (length > 0), kinds
+        assert model["relaxation_fallback_m"] == 1e-5           # the default; a relaxed stretch is listed
+        assert ("duvaut_lions_fallback" in kinds) == bool(model["relaxed_spans_m"]), kinds
         if length:
             assert kinds["duvaut_lions"]["value"] == length and kinds["duvaut_lions"]["effect"]["percent"][1] > 0
         q[length] = summary["QV_N"]

@@ -12,7 +12,7 @@ from rollsim.log import get_logger
 
 from ..regularisation import regularisation_summary
 from ..rundir import finish_run, history_row, make_run_directory, write_history
-from ..scene_model import layer_materials, relaxation_hint, scene_penalty, wheel_geometry
+from ..scene_model import layer_materials, relaxation_hint, solver_options, wheel_geometry
 
 __all__ = ["ProtocolRun", "run_protected"]
 
@@ -69,14 +69,8 @@ class ProtocolRun:
         self.wheel = wheel_geometry(scene.wheel)
         self.soil = layer_materials(scene)
         self.out = make_run_directory(out_dir, comm)
-        model = scene.model
         #: keywords shared by the wheel classes: what this run applies
-        self.solver_options = dict(gamma=scene.soil.gamma, friction=scene.wheel.friction,
-                                   petsc_options=petsc_options, penalty=scene_penalty(scene, penalty),
-                                   kinematics=model.kinematics, linear_solver=model.linear_solver,
-                                   volumetric_strain=model.volumetric_strain,
-                                   relaxation_length=model.relaxation_length,
-                                   plateau_rtol=model.plateau_tolerance)
+        self.solver_options = solver_options(scene, penalty=penalty, petsc_options=petsc_options)
         self.rows: list[dict] = []
         #: largest out-of-balance force left by an accepted Newton plateau, over that step's Q_V
         self.plateau_share = 0.0
@@ -144,13 +138,17 @@ class ProtocolRun:
                  "volumetric_strain": run.problem.volumetric_strain,
                  "contact": {"method": "penalty", "alpha": ct.alpha, "kappa_Pa_per_m": ct.kappa, "h_m": ct.h,
                              "friction": ct.friction},
-                 "relaxation_length_m": run.relaxation_length, "plateau_tolerance": run.problem.plateau_rtol}
+                 "relaxation_length_m": run.relaxation_length,
+                 "relaxation_fallback_m": self.scene.model.relaxation_fallback,
+                 "relaxed_spans_m": [list(span) for span in run.relaxed_spans],
+                 "plateau_tolerance": run.problem.plateau_rtol}
         if self.soil.regularised:
             model["regularising_cohesion_Pa"] = dict(self.soil.regularised)
         model["regularisation"] = regularisation_summary(
             self.scene.loading.protocol, regularised=self.soil.regularised,
             relaxation_length=run.relaxation_length, plateau_tolerance=run.problem.plateau_rtol,
-            plateau_share=self.plateau_share)
+            plateau_share=self.plateau_share, relaxation_fallback=self.scene.model.relaxation_fallback,
+            relaxed_spans=run.relaxed_spans)
         return model
 
     def summary(self, status: str, reason: str, **results) -> dict:
