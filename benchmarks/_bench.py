@@ -21,6 +21,14 @@ def dump_json(comm, path: str | None, payload: dict) -> None:
             json.dump({**payload, "ranks": comm.size}, f, indent=1, default=float)
 
 
+def saved_results(paths) -> list[dict]:
+    """The ``results`` rows of the JSON files ``paths`` (written by :func:`dump_json`), in order;
+    a single path that does not exist yet gives none (a sweep to resume)."""
+    paths = [paths] if isinstance(paths, (str, pathlib.Path)) else list(paths)
+    return [r for path in paths if path and pathlib.Path(path).exists()
+            for r in json.loads(pathlib.Path(path).read_text())["results"]]
+
+
 def run_in_mpirun(ranks: int, argv: list[str], out: pathlib.Path) -> dict | None:
     """Run ``python argv`` under ``mpirun -n ranks`` (a process of its own: its wall time and memory
     alone) and return the JSON it wrote to ``out`` (then removed), or ``None`` after a message

@@ -29,14 +29,12 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import json
-import pathlib
 import re
 import time
 
 from mpi4py import MPI
 
-from _bench import dump_json
+from _bench import dump_json, saved_results
 
 from rollsim.geometry import MeshOptions, PlaneStrainBlock, build_plane_strain_block
 from rollsim.scene import parse_scene
@@ -297,13 +295,10 @@ def main(argv=None) -> int:
     args = p.parse_args(argv)
     comm = MPI.COMM_WORLD
     if args.table:
-        rows = [r for path in args.table for r in json.load(open(path))["results"]]
         if comm.rank == 0:
-            print(table(rows))
+            print(table(saved_results(args.table)))
         return 0
-    rows = []
-    if args.out and pathlib.Path(args.out).exists():
-        rows = json.loads(pathlib.Path(args.out).read_text())["results"]
+    rows = saved_results(args.out)
     model = parse_model(args.model)
     done = {(r["cell"], settings(r)) for r in rows}
     cells = select(args.cells, rows, args.accuracy)

@@ -28,14 +28,12 @@ resumed: the levels it holds are not solved again.
 from __future__ import annotations
 
 import argparse
-import json
 import math
-import pathlib
 
 from mpi4py import MPI
 
 import bench_rolling_protocols as protocols
-from _bench import ORDER_RANGE, dump_json, observed_order
+from _bench import ORDER_RANGE, dump_json, observed_order, saved_results
 
 from rollsim.solver.options import VOLUMETRIC_STRAINS
 
@@ -138,13 +136,10 @@ def main(argv=None) -> int:
     args = p.parse_args(argv)
     comm = MPI.COMM_WORLD
     if args.table:
-        results = [r for path in args.table for r in json.load(open(path))["results"]]
         if comm.rank == 0:
-            print(table(results))
+            print(table(saved_results(args.table)))
         return 0
-    results = []
-    if args.out and pathlib.Path(args.out).exists():
-        results = json.loads(pathlib.Path(args.out).read_text())["results"]
+    results = saved_results(args.out)
     for strain in args.volumetric_strain:
         for n in args.refinement:
             run = {"soil": args.soil, "strain": strain, "refinement": n,

@@ -306,8 +306,9 @@ class WheelRolling:
 
     @property
     def relaxed_spans(self) -> list[tuple[float, float]]:
-        """Sinkage stretches (m) the press relaxed after a failure (see ``WheelIndentation.push``)."""
-        return self._ind.relaxed_spans
+        """Sinkage stretches (m) a relaxation fallback relaxed: always empty, the rolling protocols
+        have none (``WheelIndentation.push`` has; ``summary.json`` has the key for every protocol)."""
+        return []
 
     @property
     def cuts(self) -> int:
