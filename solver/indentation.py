@@ -52,10 +52,10 @@ __all__ = ["WheelIndentation", "IndentationStep", "LoadControlResult", "symmetry
 
 log = get_logger("solver")
 
-#: Pseudo-time control of one push leg (t in [0, 1] spans the leg's sinkage range).
 #: sinkage over which a fallback relaxation acts after a failure, in wheel diameters
 RELAXATION_STRETCH = 0.005
 
+#: Pseudo-time control of one push leg (t in [0, 1] spans the leg's sinkage range).
 DEFAULT_STEP_CONTROL = StepControl(t_end=1.0, dt=0.1, dt_min=1e-4, dt_max=0.25, easy_iterations=8, max_cuts=10)
 
 #: Added to the solver defaults: MUMPS null-pivot detection, so that a tangent made singular by

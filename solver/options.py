@@ -63,8 +63,9 @@ def default_volumetric_strain(protocol: str, accuracy: str = DEFAULT_ACCURACY,
     presets, "pointwise" on ``fast``.  Measured on constant-load rolling (docs: speed and
     accuracy, "Constant-load rolling: mesh convergence"): B-bar's levels converge on the case-5
     soil (19.1 mm at 12 elements per d, -4.5 % from 10) and are not settled on clay (8 to 10 on a
-    3.6 d block: +2.4 % in the mean from 1 d, +36 % in the detected steady value), while the pointwise sinkage levels off 12-22 % below them on the c-phi soil and reads
-    32 % below B-bar on clay at 10 per d.  On the fast mesh (8 per d) neither is within 10 % on
+    3.6 d block: +2.4 % in the mean from 1 d, +36 % in the detected steady value), while the
+    pointwise sinkage levels off 12-22 % below them on the c-phi soil and reads 32 % below B-bar
+    on clay at 10 per d.  On the fast mesh (8 per d) neither is within 10 % on
     both soils (pointwise -12 to -38 %, B-bar -14 to +23 %), and pointwise costs 2-4.5x less and needs no regularisation with
     friction: it stays the screening default there."""
     coarse = accuracy == "fast" if refinement is None else refinement <= ACCURACY_REFINEMENT["fast"]
