@@ -22,8 +22,9 @@ the observed order from the generalised three-level formula of Celik et al., J. 
 (2008) 078001); a level's error is against that value.  Prints a Markdown table (``--table``
 rebuilds it from saved JSON files without solving).  ``--relaxation-length`` (mm) runs the
 levels with a Duvaut-Lions regularisation, ``--length`` / ``--travel`` (d) on a longer block
-(both kept apart in the table).  An existing ``--out`` file is
-resumed: the levels it holds are not solved again.
+(both kept apart in the table).  Each level keeps its sinkage along the travel
+(``travel_sinkage``).  An existing ``--out`` file is resumed: the levels it holds are not solved
+again.
 """
 from __future__ import annotations
 
@@ -151,7 +152,8 @@ def main(argv=None) -> int:
                 continue
             level = level_args(args.soil, n, strain, args.relaxation_length, block_args(args.length, args.travel))
             cl = protocols.constant_load(comm, level.mu[0], level)
-            cl.pop("curve")
+            # the sinkage along the travel (m, m): where a level settles, or whether it drifts
+            cl["travel_sinkage"] = [[round(x, 5), round(s, 7)] for x, s, _, _ in cl.pop("curve")]
             results.append({**run, "ranks": comm.size, **cl})
             if comm.rank == 0:
                 s = sinkage(cl)

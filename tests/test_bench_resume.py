@@ -58,6 +58,23 @@ def test_rolling_convergence_resumes_and_keeps_regularised_runs_apart(benchmarks
 
 
 @pytest.mark.serial
+def test_rolling_convergence_keeps_the_sinkage_along_the_travel(benchmarks, tmp_path, monkeypatch):
+    """A solved level is saved with its (travel, sinkage) curve, not its forces."""
+    convergence, _ = benchmarks
+    level = _level(6.0, 0.012)
+
+    def solved(comm, mu, args):
+        return {**level, "status": "ok", "curve": [(0.1, 0.011, 1e5, 2e3), (0.2, 0.0125, 1e5, 2e3)]}
+
+    monkeypatch.setattr(convergence.protocols, "constant_load", solved)
+    out = tmp_path / "levels.json"
+    assert convergence.main(["--soil", "case5", "--refinement", "6", "--volumetric-strain", "cell-average",
+                             "--out", str(out)]) == 0
+    (saved,) = json.loads(out.read_text())["results"]
+    assert saved["travel_sinkage"] == [[0.1, 0.011], [0.2, 0.0125]] and "curve" not in saved
+
+
+@pytest.mark.serial
 def test_rolling_convergence_scores_the_steady_sinkage_when_every_level_settled(benchmarks):
     """Levels that all detected a steady state are scored by it (s_cl = mean + 1 mm here); one
     level without one makes the whole group fall back to the mean from 1 d."""
