@@ -127,15 +127,6 @@ FAST = ("phi65_psi0_c0_nu0.35_E1300", "phi55_psi0_c0_nu0.2_E300", "phi30_psiphi_
         "tiny_load", "above_capacity")
 
 
-def failure_kind(message: str) -> str:
-    """The named failure of a :class:`SolverDivergedError` message."""
-    for pattern, kind in (("wall-clock", "wall_time_guard"), ("max_iterations", "iteration_guard"),
-                          ("max_steps", "step_limit"), ("consecutive cuts|below dt_min", "newton_diverged")):
-        if re.search(pattern, message):
-            return kind
-    return "solver_error"
-
-
 def plane_strain_mesh(scene, comm: MPI.Comm):
     """Symmetric plane-strain section of the scene's indentation block (1.5 d wide, the scene's
     depth and layers, refined 0.25 d x 0.5 d under the wheel, the preset's elements per d)."""
@@ -183,7 +174,7 @@ def run_cell(comm: MPI.Comm, cell: Cell, accuracy: str = "fast", guard: float = 
             ind.push(S_OVER_D * D, control=control(), stops=[r * D for r in STOPS])
             row.update(outcome="ok", message="")
     except SolverDivergedError as err:
-        row.update(outcome=failure_kind(str(err)), message=str(err).splitlines()[0][:300])
+        row.update(outcome=err.kind, message=str(err).splitlines()[0][:300])
     last = ind.steps[-1] if ind.steps else None
     row.update(s_over_d=ind.sinkage / D, QV_N_per_m=last.QV if last else 0.0, steps=len(ind.steps),
                newton_iterations=ind.newton_iterations, cuts=ind.cuts,

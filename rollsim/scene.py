@@ -16,6 +16,7 @@ from rollsim.log import get_logger
 from rollsim.solver.options import (ACCURACIES, ACCURACY_REFINEMENT, DEFAULT_ACCURACY, DEFAULT_KINEMATICS,
                                     DEFAULT_LINEAR_SOLVER, DEFAULT_MATCH, DEFAULT_REGULARISING_COHESION,
                                     DEFAULT_RELAXATION_FALLBACK, DEFAULT_RELAXATION_LENGTH,
+                                    DEFAULT_TRAVEL_RELAXATION_FALLBACK,
                                     DEFAULT_VOLUMETRIC_STRAIN, KINEMATICS,
                                     LINEAR_SOLVERS, MATCHES, PLATEAU_RTOL, PROTOCOLS, VOLUMETRIC_STRAINS,
                                     default_volumetric_strain)
@@ -87,7 +88,8 @@ class ModelSpec:
     linear_solver: str = DEFAULT_LINEAR_SOLVER
     volumetric_strain: str = DEFAULT_VOLUMETRIC_STRAIN   # parse_scene: default_volumetric_strain(protocol, accuracy)
     relaxation_length: float = DEFAULT_RELAXATION_LENGTH   # m of the wheel's path; > 0: Duvaut-Lions
-    relaxation_fallback: float = DEFAULT_RELAXATION_FALLBACK   # m; a failed indentation step relaxed; 0: off
+    relaxation_fallback: float = DEFAULT_RELAXATION_FALLBACK   # m; a failed vertical move relaxed; 0: off
+    travel_relaxation_fallback: float = DEFAULT_TRAVEL_RELAXATION_FALLBACK   # m; a failed roll relaxed; 0: off
     regularising_cohesion: float = DEFAULT_REGULARISING_COHESION   # Pa in place of c = 0; 0: c stays 0
     plateau_tolerance: float = PLATEAU_RTOL   # Newton plateaus accepted below this x |F_internal|; 0: never
 
@@ -145,6 +147,7 @@ PLAUSIBLE = {
     "c": (0.0, 1e9, 0.0, 2e6), "c_dp": (0.0, 2e9, 0.0, 4e6), "max_sinkage": (1e-6, 5.0, 1e-3, 0.5),
     "load": (1.0, 1e8, 100.0, 2e6), "travel": (1e-3, 1000.0, 0.01, 50.0),
     "relaxation_length": (0.0, 10.0, 0.0, 0.01), "relaxation_fallback": (0.0, 10.0, 0.0, 1e-3),
+    "travel_relaxation_fallback": (0.0, 10.0, 0.0, 0.01),
     "regularising_cohesion": (0.0, 1e6, 0.0, 10e3),
     "plateau_tolerance": (0.0, 0.1, 0.0, 0.01), "refinement": (2.0, 200.0, 6.0, 50.0),
 }
@@ -337,6 +340,8 @@ def parse_scene(data: dict) -> Scene:
                                                              default=DEFAULT_RELAXATION_LENGTH, minimum=0.0),
                       relaxation_fallback=model_table.quantity("relaxation_fallback", LENGTH,
                                                                default=DEFAULT_RELAXATION_FALLBACK, minimum=0.0),
+                      travel_relaxation_fallback=model_table.quantity(
+                          "travel_relaxation_fallback", LENGTH, default=DEFAULT_TRAVEL_RELAXATION_FALLBACK, minimum=0.0),
                       regularising_cohesion=model_table.quantity("regularising_cohesion", PRESSURE,
                                                                  default=DEFAULT_REGULARISING_COHESION, minimum=0.0),
                       plateau_tolerance=model_table.quantity("plateau_tolerance", DIMENSIONLESS,

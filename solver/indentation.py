@@ -25,7 +25,6 @@ Protocols
 """
 from __future__ import annotations
 
-import dataclasses
 import json
 import math
 import pathlib
@@ -45,7 +44,8 @@ from . import checkpoint
 from .contact import RigidWheelContact
 from .options import DEFAULT_VOLUMETRIC_STRAIN, check_relaxation_length
 from .problem import PlasticityProblem
-from .stepping import RunInterrupted, SolverDivergedError, StepControl, solve_load_path
+from .stepping import (RelaxationFallback, RunInterrupted, SolverDivergedError, StepControl, advance_with_fallback,
+                       solve_load_path)
 
 __all__ = ["WheelIndentation", "IndentationStep", "LoadControlResult", "symmetry_factor",
            "DEFAULT_STEP_CONTROL", "DEFAULT_PETSC_OPTIONS"]
@@ -321,43 +321,28 @@ class WheelIndentation:
         Raises ``SolverDivergedError`` (state restored to the last converged step) when that does
         not help, without a fallback, or on a guard (wall time, iterations, signal)."""
         control = control or DEFAULT_STEP_CONTROL
-        deadline = time.perf_counter() + control.max_wall_time
-
-        def remaining() -> StepControl:     # the wall-time guard holds for the whole push
-            return dataclasses.replace(control, max_wall_time=max(deadline - time.perf_counter(), 1e-3))
-
         targets = sorted({float(s) for s in stops if self.sinkage < s < max_sinkage} | {float(max_sinkage)})
-        for target in targets:
-            while target - self.sinkage > 1e-12 * max(abs(target), 1e-3):
-                try:
-                    self._push_to(target, remaining(), on_step)
-                except SolverDivergedError as err:
-                    if not self._may_relax(err):
-                        raise
-                    start = self.sinkage
-                    end = min(target, start + self.relaxation_stretch)
-                    log.warning("Newton failed at s = %.5g m: the soil is relaxed (Duvaut-Lions, %.3g mm) up to "
-                                "s = %.5g m, then the rate-independent push goes on", start,
-                                1e3 * self.relaxation_fallback, end)
-                    self.relaxation_length = self.relaxation_fallback
-                    try:
-                        self._push_to(end, remaining(), on_step)
-                    finally:
-                        self.relaxation_length = 0.0
-                    self.relaxed_spans.append((start, self.sinkage))
+        advance_with_fallback(lambda to, c: self._push_to(to, c, on_step), lambda: self.sinkage, targets, control,
+                              self.fallback(), self._relax)
         return self.steps
 
-    def _may_relax(self, err: SolverDivergedError) -> bool:
-        """Whether the failure ``err`` of an unregularised push may be retried relaxed: Newton
-        diverged (not a guard or a signal) and a fallback length is set."""
-        return (self.relaxation_fallback > 0 and self.relaxation_length == 0
-                and not isinstance(err, RunInterrupted) and str(err).startswith("Newton diverged"))
+    def fallback(self) -> RelaxationFallback | None:
+        """The relaxation fallback of a vertical move: ``relaxation_fallback`` over
+        ``relaxation_stretch`` of sinkage; None when the soil is relaxed already or it is off."""
+        if self.relaxation_length > 0 or self.relaxation_fallback == 0:
+            return None
+        return RelaxationFallback(self.relaxation_fallback, self.relaxation_stretch, self.relaxed_spans)
+
+    def _relax(self, length: float) -> None:
+        """Set the relaxation length (m; 0: rate-independent) of the next steps."""
+        self.relaxation_length = length
+        if length == 0:
+            self.problem.relaxation = math.inf
 
     def _push_to(self, target: float, control: StepControl, on_step) -> None:
         """One displacement-controlled path from the current sinkage to ``target`` (m)."""
         s0 = self.sinkage
         span = target - s0
-        n_before = len(self.steps)
 
         def on_t(t):
             st = self._record()
@@ -370,14 +355,12 @@ class WheelIndentation:
             self._sink_to(s0 + span * t)
 
         try:
-            hist = solve_load_path(self.problem, set_load, control, on_t)
-        except SolverDivergedError as err:
-            self._absorb(err.history, n_before)
+            solve_load_path(self.problem, set_load, control, on_t)
+        except SolverDivergedError:
             self.set_sinkage(self.sinkage)
             raise
         finally:
             self.problem.relaxation = math.inf
-        self._absorb(hist, n_before)
 
     def _record(self) -> IndentationStep:
         """Append the current (just committed) state as a step."""
@@ -397,9 +380,6 @@ class WheelIndentation:
 
     _t_last = time.perf_counter()
     _attempts = 0
-
-    def _absorb(self, hist, n_before: int) -> None:
-        pass
 
     @property
     def newton_iterations(self) -> int:
@@ -447,16 +427,19 @@ class WheelIndentation:
             saved.update(lo=self.save_state(), s_lo=s, Q_lo=f["QV"])
             return {"QV": f["QV"], "sinkage": s}
 
-        s0 = self.sinkage
-        n_before = len(self.steps)
         bracket = None
-        try:
+
+        def advance(to: float, c: StepControl) -> None:
+            s_from = self.sinkage
+
             def set_load(t):
                 self._attempts += 1
-                self._sink_to(s0 + (sinkage_limit - s0) * t)
+                self._sink_to(s_from + (to - s_from) * t)
 
-            hist = solve_load_path(pb, set_load, control, on_t)
-            self._absorb(hist, n_before)
+            solve_load_path(pb, set_load, c, on_t)
+
+        try:
+            advance_with_fallback(advance, lambda: self.sinkage, [sinkage_limit], control, self.fallback(), self._relax)
         except _Bracketed as br:
             s_hi, Q_hi = br.args
             if s_hi is not None:
@@ -464,7 +447,6 @@ class WheelIndentation:
         except RunInterrupted:
             raise
         except SolverDivergedError as err:
-            self._absorb(err.history, n_before)
             self.set_sinkage(self.sinkage)
             return LoadControlResult("failed", load, self.sinkage, saved["Q_lo"], best["QV"], best["s"], 0,
                                      reason=str(err), steps=self.steps)

@@ -41,6 +41,9 @@ DEFAULT_RELAXATION_LENGTH = 0.0
 #: relaxation length (m) a push falls back to, over a short stretch of sinkage, when Newton fails
 #: on the unregularised soil (``[model] relaxation_fallback``); 0: fail instead
 DEFAULT_RELAXATION_FALLBACK = 1e-5
+#: relaxation length (m of travel) a roll falls back to, over a stretch of travel, when Newton fails
+#: on the unregularised soil (``[model] travel_relaxation_fallback``); 0: fail instead
+DEFAULT_TRAVEL_RELAXATION_FALLBACK = 5e-4
 
 #: A Newton plateau (see :data:`rollsim.solver.problem.STAGNATION`) whose ``|F|`` is below this
 #: fraction of the internal-force norm (``PlasticityProblem.force_rtol``'s scale) is accepted as

@@ -8,6 +8,7 @@ with a default the solver chooses:
   off; a failed run on a non-associated soil suggests one);
 * ``relaxation_fallback``: the same over a short stretch of sinkage after Newton failed on the
   unregularised soil, then the rate-independent push goes on (default 0.01 mm);
+* ``travel_relaxation_fallback``: the same for a roll, over a stretch of travel (default 0.5 mm);
 * ``plateau_tolerance``: Newton plateaus below this share of the internal-force norm accepted as
   converged (default 1e-3).
 
@@ -50,6 +51,16 @@ FALLBACK_BASIS = ("Q_V at s/d = 0.1 with the length halved: within 1.6 % on 24 a
 FALLBACK_MEASURED = (5e-6, 2e-5)
 
 
+#: travel fallback (default 0.5 mm over 0.1 d of travel after a failure): its effect is taken as at
+#: most that of relaxing the whole path by the same length (:func:`relaxation_bias`, 3 % per mm);
+#: measured on the dense sand of layered case 13 (tiny test block, 0.1 d rolled, the last 0.032 m
+#: relaxed): Q_V 140.34 / 140.60 / 141.06 kN at 0.25 / 0.5 / 1 mm
+TRAVEL_FALLBACK_BASIS = ("at most the bias of relaxing the whole path by the same length (first order, about "
+                         "3 % per mm); dense sand, Q_V with 0.5 mm halved: -0.19 %")
+#: the travel fallback lengths measured (m)
+TRAVEL_FALLBACK_MEASURED = (2.5e-4, 1e-3)
+
+
 def cohesion_bias(c_reg: float) -> tuple[tuple[float, float], bool]:
     """Estimated rise of Q_V (%, low and high) from a regularising cohesion ``c_reg`` (Pa) in place
     of c = 0, and whether ``c_reg`` lies in the measured range (outside it the power law is
@@ -78,15 +89,23 @@ def relaxation_bias(length: float, protocol: str) -> tuple[tuple[float, float], 
     return (0.0, biases[k - 1] + w * (biases[k] - biases[k - 1])), inside
 
 
+def _signed(lo: float, hi: float, quantity: str) -> list[float]:
+    """A relaxation's effect range (%, magnitudes) with its sign: Q_V up, constant-load sinkage down."""
+    sign = -1 if quantity == "sinkage" else 1
+    return sorted([round(sign * lo, 1) + 0.0, round(sign * hi, 1) + 0.0])
+
+
 def regularisation_summary(protocol: str, *, regularised: dict, relaxation_length: float,
                            plateau_tolerance: float, plateau_share: float, relaxation_fallback: float = 0.0,
-                           relaxed_spans=()) -> list[dict]:
+                           relaxed_spans=(), travel_relaxation_fallback: float = 0.0,
+                           relaxed_travel=()) -> list[dict]:
     """The ``model.regularisation`` entries of a run (empty when it solved the scene as stated).
 
     protocol : loading protocol; regularised : ``{"soil.layers[i]": c_reg (Pa)}``;
     relaxation_length : m; plateau_tolerance : accepted plateau / internal-force norm;
     plateau_share : largest residual force an accepted plateau left, over that step's Q_V;
-    relaxation_fallback : m; relaxed_spans : ``(from, to)`` sinkage (m) of each stretch it relaxed
+    relaxation_fallback : m; relaxed_spans : ``(from, to)`` sinkage (m) of each stretch it relaxed;
+    travel_relaxation_fallback : m; relaxed_travel : ``(from, to)`` travel (m) of each stretch it relaxed
     """
     quantity = "sinkage" if protocol == "rolling-constant-load" else "QV"
     entries = []
@@ -100,12 +119,10 @@ def regularisation_summary(protocol: str, *, regularised: dict, relaxation_lengt
             "tighten": "lower model.regularising_cohesion; 0 keeps c = 0 exactly (slower)"})
     if relaxation_length > 0:
         (lo, hi), measured = relaxation_bias(relaxation_length, protocol)
-        sign = -1 if quantity == "sinkage" else 1
         entries.append({
             "kind": "duvaut_lions", "key": "model.relaxation_length", "value": relaxation_length, "unit": "m",
             "applies_to": "soil",
-            "effect": {"quantity": quantity, "percent": sorted([round(sign * lo, 1) + 0.0, round(sign * hi, 1) + 0.0]),
-                       "measured_range": measured,
+            "effect": {"quantity": quantity, "percent": _signed(lo, hi, quantity), "measured_range": measured,
                        "basis": ("first order in the length: clay and a c-phi soil about 3 % per mm, dense sand less"
                                  if protocol != "indentation" else
                                  "c = 0 sand, phi = 40 deg, Q_V at s/d = 0.1; soils with cohesion not measured")},
@@ -119,6 +136,16 @@ def regularisation_summary(protocol: str, *, regularised: dict, relaxation_lengt
                        "measured_range": FALLBACK_MEASURED[0] <= relaxation_fallback <= FALLBACK_MEASURED[1],
                        "basis": FALLBACK_BASIS},
             "tighten": "halve model.relaxation_fallback and compare; 0 stops the run at the failure instead"})
+    if relaxed_travel:
+        (lo, hi), _ = relaxation_bias(travel_relaxation_fallback, protocol)
+        entries.append({
+            "kind": "duvaut_lions_travel_fallback", "key": "model.travel_relaxation_fallback",
+            "value": travel_relaxation_fallback, "unit": "m",
+            "applies_to": "soil, over " + ", ".join(f"travel = {a:.4g}-{b:.4g} m" for a, b in relaxed_travel),
+            "effect": {"quantity": quantity, "percent": _signed(lo, hi, quantity),
+                       "measured_range": TRAVEL_FALLBACK_MEASURED[0] <= travel_relaxation_fallback
+                       <= TRAVEL_FALLBACK_MEASURED[1], "basis": TRAVEL_FALLBACK_BASIS},
+            "tighten": "halve model.travel_relaxation_fallback and compare; 0 stops the run at the failure instead"})
     if plateau_share > 0:
         entries.append({
             "kind": "newton_plateaus", "key": "model.plateau_tolerance", "value": plateau_tolerance, "unit": "",

@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Callable
 
 import numpy as np
@@ -39,8 +39,9 @@ from rollsim.log import get_logger
 
 from .contact import PoseDerivatives
 from .indentation import LoadControlResult, WheelIndentation
+from .options import check_relaxation_length
 from .problem import NewtonReport
-from .stepping import SolverDivergedError, StepControl, solve_load_path
+from .stepping import RelaxationFallback, SolverDivergedError, StepControl, advance_with_fallback, solve_load_path
 
 __all__ = ["WheelRolling", "RollingStep", "SteadyState", "detect_steady_state", "DEFAULT_ROLL_CONTROL",
            "STEADY_MIN_TRAVEL"]
@@ -55,6 +56,8 @@ DEFAULT_ROLL_CONTROL = dict(dt=0.25, dt_min=1e-3, dt_max=0.5, easy_iterations=8,
 #: 0.3-0.6 d past the zone's end and the sinkage had settled by 0.7-0.95 d (docs, "Do the two
 #: protocols agree?" and the Mn/DOT run)
 STEADY_MIN_TRAVEL = 0.75
+#: travel over which a fallback relaxation acts after a failure, in wheel diameters
+TRAVEL_RELAXATION_STRETCH = 0.1
 
 
 @dataclass
@@ -224,13 +227,16 @@ class WheelRolling:
     balance tolerance relative to ``Q_V d``; ``relaxation_length`` (m, 0: off): Duvaut-Lions
     regularisation of the soil while the wheel moves (press, roll, lift), with the wheel's path
     as pseudo-time: a step that moves the wheel by ``dx`` has ``r = dx / relaxation_length``
-    (see :func:`~rollsim.solver.return_map.duvaut_lions`); other keywords as :class:`WheelIndentation`.
+    (see :func:`~rollsim.solver.return_map.duvaut_lions`); ``travel_relaxation_fallback`` (m, 0: off):
+    the relaxation length a roll falls back to over the next ``TRAVEL_RELAXATION_STRETCH`` d of travel
+    when Newton fails after step cutting on the unregularised soil (the vertical moves fall back to
+    ``relaxation_fallback`` as :meth:`WheelIndentation.push`); other keywords as :class:`WheelIndentation`.
     """
 
     def __init__(self, tagged, wheel, materials, *, gamma: float = 0.0, friction: float = 0.0,
                  x_start: float | None = None, moment_rtol: float = 2e-3,
                  stiff_material=None, petsc_options: dict | None = None, penalty: float | None = None,
-                 relaxation_length: float = 0.0, **kw):
+                 relaxation_length: float = 0.0, travel_relaxation_fallback: float = 0.0, **kw):
         from rollsim.geometry import ROLLING_START, STIFF_ZONE_TAG
         mats = dict(materials) if isinstance(materials, dict) else {1: materials}
         if STIFF_ZONE_TAG in tagged.cell_names.values() and STIFF_ZONE_TAG not in mats:
@@ -255,6 +261,9 @@ class WheelRolling:
         self.factor = self._ind.factor
         self.n_dofs = self._ind.n_dofs
         self.friction = float(friction)
+        self.travel_relaxation_fallback = check_relaxation_length(travel_relaxation_fallback)
+        #: ``(from, to)`` travel (m) of each stretch a roll relaxed after a failure
+        self.relaxed_travel: list[tuple[float, float]] = []
         self.moment_rtol = float(moment_rtol)
         self.steps: list[RollingStep] = []
         self.target_load: float | None = None   # N, whole wheel: set by roll_at_load
@@ -306,9 +315,15 @@ class WheelRolling:
 
     @property
     def relaxed_spans(self) -> list[tuple[float, float]]:
-        """Sinkage stretches (m) a relaxation fallback relaxed: always empty, the rolling protocols
-        have none (``WheelIndentation.push`` has; ``summary.json`` has the key for every protocol)."""
-        return []
+        """Sinkage stretches (m) the vertical moves (press, press to load) relaxed after a failure."""
+        return self._ind.relaxed_spans
+
+    def _travel_fallback(self) -> RelaxationFallback | None:
+        """The relaxation fallback of a roll (None when the soil is relaxed already or it is off)."""
+        if self.relaxation_length > 0 or self.travel_relaxation_fallback == 0:
+            return None
+        return RelaxationFallback(self.travel_relaxation_fallback, TRAVEL_RELAXATION_STRETCH * self.d,
+                                  self.relaxed_travel)
 
     @property
     def cuts(self) -> int:
@@ -331,14 +346,9 @@ class WheelRolling:
         return self._move_vertically(s0, control, on_step)
 
     def _move_vertically(self, s_to: float, control: StepControl, on_step) -> list[RollingStep]:
-        """Displacement-controlled vertical move of the wheel from the current sinkage to ``s_to``."""
-        x, s_from, th = self.position, self.sinkage, self.rotation
-
-        def set_load(t):
-            self._attempts += 1
-            s = s_from + (s_to - s_from) * t
-            self.problem.relax_over(abs(s - self.sinkage), self.relaxation_length)
-            self.contact.set_pose(centre=self._centre(x, s), angle=th)
+        """Displacement-controlled vertical move of the wheel from the current sinkage to ``s_to``;
+        downwards with the relaxation fallback of :meth:`WheelIndentation.push`."""
+        x, th = self.position, self.rotation
 
         def on_t(t):
             st = self._record(dx=0.0, dth=0.0)
@@ -346,7 +356,22 @@ class WheelRolling:
                 on_step(st)
             return {"QV": st.QV}
 
-        self._run(set_load, control, on_t)
+        def advance(to: float, c: StepControl) -> None:
+            s_from = self.sinkage
+
+            def set_load(t):
+                self._attempts += 1
+                s = s_from + (to - s_from) * t
+                self.problem.relax_over(abs(s - self.sinkage), self.relaxation_length)
+                self.contact.set_pose(centre=self._centre(x, s), angle=th)
+
+            self._run(set_load, c, on_t)
+
+        if s_to > self.sinkage:
+            advance_with_fallback(advance, lambda: self.sinkage, [s_to], control, self._ind.fallback(),
+                                  self._ind._relax)
+        else:
+            advance(s_to, control)
         return self.steps
 
     def roll(self, travel: float, s_target: float, ramp: float | None = None, dx: float | None = None,
@@ -355,8 +380,9 @@ class WheelRolling:
         """Translate the wheel by ``travel`` (m) in +x, its sinkage ramped linearly from the current
         value to ``s_target`` over the first ``ramp`` metres of travel (default: all of it), then
         held.  ``dx``: first travel step (default h/4, h the contact element size; grows to h/2
-        after easy steps, cut on divergence).  Returns all steps; ``SolverDivergedError`` (state at
-        the last converged step) on failure."""
+        after easy steps, cut on divergence; relaxed over a stretch after a failure, see
+        ``travel_relaxation_fallback``).  Returns all steps; ``SolverDivergedError`` (state at the
+        last converged step) on failure."""
         if not travel > 0:
             raise ValueError(f"travel must be > 0, got {travel}")
         ramp = travel if ramp is None else float(ramp)
@@ -369,7 +395,7 @@ class WheelRolling:
                 c["dt"] = dx / h
                 c["dt_max"] = max(c["dt_max"], c["dt"])
             control = StepControl(t_end=travel, **{k: (v * h if k.startswith("dt") else v) for k, v in c.items()})
-        x0, s0, th0 = self.position, self.sinkage, self.rotation
+        x0, s0 = self.position, self.sinkage
 
         def sink(t):
             return s0 + (s_target - s0) * min(t / ramp, 1.0)
@@ -394,9 +420,13 @@ class WheelRolling:
                 on_step(st)
             return {"QV": st.QV, "moment": st.moment}
 
+        def advance(to: float, c: StepControl) -> None:
+            self._run(set_load, replace(c, t_end=to), on_t, t_start=self.position - x0)
+
         self._rolling = True
         try:
-            self._run(set_load, control, on_t)
+            advance_with_fallback(advance, lambda: self.position - x0, [travel], control, self._travel_fallback(),
+                                  self._ind._relax, what="travel")
         finally:
             self._rolling = False
         return self.steps
@@ -517,10 +547,10 @@ class WheelRolling:
     _last_dth = 0.0
 
     # ------------------------------------------------------------------ internals
-    def _run(self, set_load, control, on_t) -> None:
+    def _run(self, set_load, control, on_t, t_start: float = 0.0) -> None:
         pb = _TorqueBalancedProblem(self)
         try:
-            solve_load_path(pb, set_load, control, on_t)
+            solve_load_path(pb, set_load, control, on_t, t_start=t_start)
         except SolverDivergedError:
             c, th = np.array(self.contact.centre_n.value), float(self.contact.angle_n.value)
             self.contact.set_pose(centre=c, angle=th)

@@ -129,9 +129,12 @@ def scene_penalty(scene, penalty: float | None) -> float | None:
 
 def solver_options(scene, *, penalty: float | None = None, petsc_options: dict | None = None) -> dict:
     """Keywords of the wheel classes (``WheelIndentation``, ``WheelRolling``) for ``scene``: its unit
-    weight and wheel friction, the penalty of :func:`scene_penalty` and the ``[model]`` options."""
+    weight and wheel friction, the penalty of :func:`scene_penalty` and the ``[model]`` options
+    (``travel_relaxation_fallback`` for the rolling protocols only)."""
     model = scene.model
-    return dict(gamma=scene.soil.gamma, friction=scene.wheel.friction, petsc_options=petsc_options,
+    rolling = {} if scene.loading.protocol == "indentation" else {
+        "travel_relaxation_fallback": model.travel_relaxation_fallback}
+    return rolling | dict(gamma=scene.soil.gamma, friction=scene.wheel.friction, petsc_options=petsc_options,
                 penalty=scene_penalty(scene, penalty), kinematics=model.kinematics,
                 linear_solver=model.linear_solver, volumetric_strain=model.volumetric_strain,
                 relaxation_length=model.relaxation_length, relaxation_fallback=model.relaxation_fallback,

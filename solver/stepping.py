@@ -29,7 +29,7 @@ import contextlib
 import math
 import signal
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Callable
 
 import numpy as np
@@ -37,7 +37,7 @@ import numpy as np
 from rollsim.log import get_logger
 
 __all__ = ["StepControl", "StepRecord", "ConvergedState", "SolverDivergedError", "RunInterrupted",
-           "solve_load_path", "stop_on_signals"]
+           "RelaxationFallback", "solve_load_path", "advance_with_fallback", "stop_on_signals"]
 
 log = get_logger("solver")
 
@@ -117,13 +117,17 @@ class ConvergedState:
 
 
 class SolverDivergedError(RuntimeError):
-    """Newton failed even after cutting the step; ``last_converged`` / ``history`` are kept and the
-    problem has been restored to that state."""
+    """Newton failed even after cutting the step, or a guard stopped the path; ``last_converged`` /
+    ``history`` are kept and the problem has been restored to that state.  ``kind`` names the
+    failure: ``"newton_diverged"``, ``"wall_time_guard"``, ``"iteration_guard"``, ``"step_limit"``
+    or ``"interrupted"``."""
 
-    def __init__(self, message: str, last_converged: ConvergedState, history: list[StepRecord]):
+    def __init__(self, message: str, last_converged: ConvergedState, history: list[StepRecord],
+                 kind: str = "newton_diverged"):
         super().__init__(message)
         self.last_converged = last_converged
         self.history = history
+        self.kind = kind
 
 
 class RunInterrupted(SolverDivergedError):
@@ -131,7 +135,7 @@ class RunInterrupted(SolverDivergedError):
     converged step.  ``signal_name`` is e.g. ``"SIGINT"``."""
 
     def __init__(self, message: str, last_converged, history, signal_name: str):
-        super().__init__(message, last_converged, history)
+        super().__init__(message, last_converged, history, kind="interrupted")
         self.signal_name = signal_name
 
 
@@ -202,7 +206,7 @@ def solve_load_path(problem, set_load: Callable[[float], None], control: StepCon
     while t < control.t_end * (1 - 1e-12):
         if len(history) >= control.max_steps:
             raise SolverDivergedError(f"max_steps={control.max_steps} reached at t={t:g}",
-                                      _snapshot(problem, t), history)
+                                      _snapshot(problem, t), history, kind="step_limit")
         wall = time.perf_counter() - t_wall0
         if comm is not None:
             wall = comm.allreduce(wall, op=_mpi_max())     # all ranks take the same decision
@@ -217,7 +221,8 @@ def solve_load_path(problem, set_load: Callable[[float], None], control: StepCon
                     if wall > control.max_wall_time else f"max_iterations={control.max_iterations}")
             raise SolverDivergedError(
                 f"{what} reached at t={t:g} after {len(history)} steps ({its_total} Newton iterations, "
-                f"{wall:.1f} s); last converged state kept", _snapshot(problem, t), history)
+                f"{wall:.1f} s); last converged state kept", _snapshot(problem, t), history,
+                kind="wall_time_guard" if wall > control.max_wall_time else "iteration_guard")
         dt = min(dt, dt_cap if cap_left > 0 else math.inf, control.t_end - t)
         set_load(t + dt)
         predicted = control.predictor in ("extrapolate", "auto") and u_prev is not None
@@ -268,6 +273,61 @@ def solve_load_path(problem, set_load: Callable[[float], None], control: StepCon
             dt = min(dt * control.grow, control.dt_max)
         cuts = 0
     return history
+
+
+@dataclass
+class RelaxationFallback:
+    """Duvaut-Lions fallback of a path on the unregularised soil (see :func:`advance_with_fallback`):
+    when Newton fails after step cutting, the path goes on relaxed with ``length`` (m of the path's
+    coordinate; 0: off) over the next ``stretch`` (m of that coordinate), then rate-independent
+    again.  ``spans`` collects the ``(from, to)`` coordinate of every relaxed stretch."""
+
+    length: float
+    stretch: float
+    spans: list[tuple[float, float]] = field(default_factory=list)
+
+    def __post_init__(self):
+        if not (self.length >= 0 and self.stretch > 0 and math.isfinite(self.length + self.stretch)):
+            raise ValueError(f"length must be >= 0 and stretch > 0, got {self.length!r}, {self.stretch!r}")
+
+    def applies(self, err: SolverDivergedError) -> bool:
+        """Whether ``err`` may be retried relaxed: Newton diverged (not a guard or a signal)."""
+        return self.length > 0 and err.kind == "newton_diverged"
+
+
+def advance_with_fallback(advance: Callable[[float, StepControl], None], position: Callable[[], float],
+                          targets, control: StepControl, fallback: RelaxationFallback | None,
+                          relax: Callable[[float], None], what: str = "s") -> None:
+    """Move a path coordinate (sinkage or travel, m) from ``position()`` through each of ``targets``
+    (ascending) by ``advance(to, control)`` (one :func:`solve_load_path` from the current state to
+    ``to``).  When ``advance`` fails as ``fallback`` allows, ``relax(fallback.length)`` switches the
+    soil's relaxation on for the next ``fallback.stretch`` and ``relax(0)`` off again; a failure
+    inside that stretch is raised.  ``control.max_wall_time`` holds for the whole move; ``what``
+    names the coordinate in the log."""
+    deadline = time.perf_counter() + control.max_wall_time
+
+    def remaining() -> StepControl:
+        return replace(control, max_wall_time=max(deadline - time.perf_counter(), 1e-3))
+
+    for target in targets:
+        while target - position() > 1e-12 * max(abs(target), 1e-3):
+            try:
+                advance(target, remaining())
+            except SolverDivergedError as err:
+                if fallback is None or not fallback.applies(err):
+                    raise
+                start = position()
+                end = min(target, start + fallback.stretch)
+                log.warning("Newton failed at %s = %.5g m: the soil is relaxed (Duvaut-Lions, %.3g mm) up to "
+                            "%s = %.5g m, then the rate-independent path goes on", what, start,
+                            1e3 * fallback.length, what, end)
+                relax(fallback.length)
+                try:
+                    advance(end, remaining())
+                finally:
+                    relax(0.0)
+                    if position() > start:
+                        fallback.spans.append((start, position()))
 
 
 def _reset_linear_solver(problem) -> None:

@@ -44,14 +44,10 @@ def test_steep_nonassociated_sand_needs_the_relaxation_fallback(comm):
     assert default["relaxed_s_over_d"] <= default["relaxed_stretches"] * 0.005 + 1e-12
 
 
-def test_matrix_names_and_failures():
-    """Every fast cell is in the matrix, the matrix has no duplicates and a failure gets its name."""
+def test_matrix_names():
+    """Every fast cell is in the matrix and the matrix has no duplicates."""
     names = [c.name for c in bench_extremes.matrix()]
     assert len(names) == len(set(names)) == 355 and set(bench_extremes.FAST) <= set(names)
-    assert bench_extremes.failure_kind("... wall-clock limit max_wall_time=1 s ...") == "wall_time_guard"
-    assert bench_extremes.failure_kind("Newton diverged at t=0.3 (tried dt down to 1e-4, 3 consecutive cuts > "
-                                       "max_cuts=2; ...)") == "newton_diverged"
-    assert bench_extremes.failure_kind("PETSc error 76") == "solver_error"
 
 
 def test_fallback_estimate_matches_the_saved_matrix():

@@ -68,3 +68,18 @@ def test_fallback_relaxation_is_listed_with_its_stretches():
     assert not regularisation_summary("indentation", regularised={}, relaxation_length=0.0, plateau_tolerance=1e-3,
                                       plateau_share=0.0, relaxation_fallback=1e-3,
                                       relaxed_spans=[(0.01, 0.02)])[0]["effect"]["measured_range"]
+
+
+def test_travel_fallback_is_listed_with_its_stretches():
+    """A roll the travel fallback relaxed lists each stretch of travel; the effect is that of the
+    whole path relaxed by the same length, with the sign of the protocol's quantity."""
+    kw = dict(regularised={}, relaxation_length=0.0, plateau_tolerance=1e-3, plateau_share=0.0)
+    assert regularisation_summary("rolling-constant-load", travel_relaxation_fallback=5e-4, relaxed_travel=[], **kw) == []
+    (entry,) = regularisation_summary("rolling-constant-load", travel_relaxation_fallback=5e-4,
+                                      relaxed_travel=[(0.5, 0.65)], **kw)
+    assert entry["kind"] == "duvaut_lions_travel_fallback" and entry["key"] == "model.travel_relaxation_fallback"
+    assert entry["applies_to"] == "soil, over travel = 0.5-0.65 m" and entry["effect"]["measured_range"]
+    assert entry["effect"] == entry["effect"] | {"quantity": "sinkage", "percent": [-1.5, 0.0]}
+    (entry,) = regularisation_summary("rolling-continuous", travel_relaxation_fallback=2e-3,
+                                      relaxed_travel=[(0.5, 0.65)], **kw)
+    assert entry["effect"]["percent"] == [0.0, 6.0] and not entry["effect"]["measured_range"]

@@ -149,12 +149,15 @@ def test_default_k0_outside_the_cone_is_clipped(comm):
 
 
 def test_guards_stop_cleanly(comm):
-    """max_wall_time / max_iterations: SolverDivergedError naming the guard, state restored."""
+    """max_wall_time / max_iterations: SolverDivergedError naming the guard (message and kind),
+    state restored."""
     from rollsim.solver import SolverDivergedError, StepControl, StripFooting, strip_footing_mesh
-    for kw, word in ((dict(max_wall_time=1e-9), "wall-clock"), (dict(max_iterations=3), "max_iterations")):
+    for kw, word, kind in ((dict(max_wall_time=1e-9), "wall-clock", "wall_time_guard"),
+                           (dict(max_iterations=3), "max_iterations", "iteration_guard")):
         fo = StripFooting(strip_footing_mesh(comm, B, 2), von_mises_from_tresca(E, NU, C))
         with pytest.raises(SolverDivergedError, match=word) as info:
             fo.run(0.1, StepControl(dt=0.05, **kw))
+        assert info.value.kind == kind
         pb = fo.problem
         assert_all(comm, np.array_equal(pb.u.x.array, pb.u_n.x.array), "displacement restored")
         assert_all(comm, np.array_equal(pb.u_n.x.array, info.value.last_converged.u), "state kept")
@@ -444,3 +447,49 @@ def test_newton_plateaus_let_a_steep_nonassociated_sand_indent(comm, tmp_mpi_pat
     for s_over_d in ("0.01", "0.02"):
         ratio = accepted["QV_at_s_over_d"][s_over_d] / cut_only["QV_at_s_over_d"][s_over_d]
         assert abs(ratio - 1) < 0.02, (s_over_d, ratio)
+
+
+def test_fallback_relaxes_the_stretch_after_a_failure_then_goes_on():
+    """``advance_with_fallback`` on a path that fails at 0.3 and 0.55 unless relaxed: each failure
+    is retried relaxed over the next stretch (and no further), the relaxation is switched off
+    after it, both stretches are listed; a guard, or a failure inside the stretch, is raised."""
+    from rollsim.solver.stepping import RelaxationFallback, SolverDivergedError, StepControl, advance_with_fallback
+    hard = [0.3, 0.55]
+    state = {"x": 0.0, "relax": 0.0}
+    switched = []
+
+    def advance(to, control):
+        assert control.max_wall_time > 0
+        block = next((h for h in hard if state["x"] < h <= to), None)
+        if block is not None and state["relax"] == 0:
+            state["x"] = block - 0.01
+            raise SolverDivergedError("Newton diverged at t=...", None, [])
+        state["x"] = to
+
+    def relax(length):
+        state["relax"] = length
+        switched.append(length)
+
+    fb = RelaxationFallback(length=1e-3, stretch=0.1)
+    advance_with_fallback(advance, lambda: state["x"], [0.5, 1.0], StepControl(), fb, relax)
+    assert state["x"] == 1.0 and state["relax"] == 0.0 and switched == [1e-3, 0.0, 1e-3, 0.0]
+    assert fb.spans == [(0.29, pytest.approx(0.39)), (0.54, pytest.approx(0.64))]
+    state.update(x=0.0)
+    with pytest.raises(SolverDivergedError):                  # no fallback: the failure stands
+        advance_with_fallback(advance, lambda: state["x"], [1.0], StepControl(), None, relax)
+    assert state["x"] == pytest.approx(0.29)
+    guard = SolverDivergedError("wall-clock limit max_wall_time=1 s reached", None, [], kind="wall_time_guard")
+    assert not fb.applies(guard) and fb.applies(SolverDivergedError("Newton diverged at t=0", None, []))
+    assert not RelaxationFallback(length=0.0, stretch=0.1).applies(SolverDivergedError("Newton diverged", None, []))
+    hard[:] = [0.3, 0.35]                                     # fails again inside the relaxed stretch
+    state.update(x=0.0)
+
+    def stubborn(to, control):
+        if state["x"] < 0.35 <= to:
+            state["x"] = min(max(state["x"], 0.34), to)
+            raise SolverDivergedError("Newton diverged at t=...", None, [])
+        advance(to, control)
+
+    with pytest.raises(SolverDivergedError):
+        advance_with_fallback(stubborn, lambda: state["x"], [1.0], StepControl(), RelaxationFallback(1e-3, 0.1), relax)
+    assert state["relax"] == 0.0

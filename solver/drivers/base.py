@@ -142,13 +142,19 @@ class ProtocolRun:
                  "relaxation_fallback_m": self.scene.model.relaxation_fallback,
                  "relaxed_spans_m": [list(span) for span in run.relaxed_spans],
                  "plateau_tolerance": run.problem.plateau_rtol}
+        relaxed_travel = getattr(run, "relaxed_travel", None)      # rolling only
+        if relaxed_travel is not None:
+            model["travel_relaxation_fallback_m"] = run.travel_relaxation_fallback
+            model["relaxed_travel_m"] = [list(span) for span in relaxed_travel]
         if self.soil.regularised:
             model["regularising_cohesion_Pa"] = dict(self.soil.regularised)
         model["regularisation"] = regularisation_summary(
             self.scene.loading.protocol, regularised=self.soil.regularised,
             relaxation_length=run.relaxation_length, plateau_tolerance=run.problem.plateau_rtol,
             plateau_share=self.plateau_share, relaxation_fallback=self.scene.model.relaxation_fallback,
-            relaxed_spans=run.relaxed_spans)
+            relaxed_spans=run.relaxed_spans,
+            travel_relaxation_fallback=getattr(run, "travel_relaxation_fallback", 0.0),
+            relaxed_travel=relaxed_travel or ())
         return model
 
     def summary(self, status: str, reason: str, **results) -> dict:
