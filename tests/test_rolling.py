@@ -360,6 +360,26 @@ def _constant_load_scene(friction=0.0, yield_stress="200 kPa", load="100 kN", tr
 CL_BLOCK = {"length": 1.6, "half_width": 0.6, "depth": 0.6, "stiff_length": 0.5}   # in d
 
 
+def test_failed_lift_off_keeps_the_rolling_result(comm, tmp_mpi_path, monkeypatch):
+    """A lift-off that diverges after the rolling (unloading dense sand can) leaves the run ``ok``
+    with its steady state, and says why the rut is missing."""
+    from rollsim.solver.rolling import SteadyState
+
+    def roll_at_load(self, load, travel, **kw):
+        return SteadyState(True, 0.0, self.sinkage, load, 0.0, self.contact.h, 0.0, 0.0)
+
+    def lift(self, on_step=None):
+        raise SolverDivergedError("Newton diverged at t=0.26 (...)", None, [])
+
+    monkeypatch.setattr(WheelRolling, "roll_at_load", roll_at_load)
+    monkeypatch.setattr(WheelRolling, "lift", lift)
+    summary = run_scene(_constant_load_scene(), tmp_mpi_path, comm, progress=False, write_fields=False,
+                        block=CL_BLOCK)
+    assert summary["status"] == "ok" and summary["steady_state"]["reached"], summary["reason"]
+    assert summary["rut_depth_m"] is None and summary["rut_note"].startswith("lift-off failed: Newton diverged")
+    assert summary["sinkage_m"] > 0
+
+
 @pytest.mark.serial
 def test_constant_load_rolling(tmp_mpi_path):
     """rolling-constant-load through run_scene (fast mesh, short block, serial; the report-size

@@ -12,6 +12,7 @@ from rollsim.files import atomic_write_text
 from rollsim.log import get_logger
 
 from ..rolling import STEADY_MIN_TRAVEL, SteadyState, WheelRolling
+from ..stepping import SolverDivergedError
 from .base import RollingRun
 
 __all__ = ["run_constant_load", "measure_rut", "STIFF_LENGTH"]
@@ -66,7 +67,7 @@ def run_constant_load(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, 
     run = RollingRun(scene, out_dir, comm, block=block, moment_rtol=moment_rtol, progress=progress,
                      write_fields=write_fields, petsc_options=petsc_options, penalty=penalty)
     roll = run.roll
-    outcome = {"steady": None, "contact_length": 0.0, "lifted": False}
+    outcome = {"steady": None, "contact_length": 0.0, "lifted": False, "lift_failure": None}
 
     def rolling():
         run.announce(f"travel {travel:g} m, Q_V = {load / 1e3:g} kN")
@@ -81,7 +82,14 @@ def run_constant_load(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, 
             log.warning("no steady state within the travel of %g m: the values are those of the last "
                         "step (a longer travel or a coarser steady tolerance may help)", travel)
         outcome["contact_length"] = roll.contact_length()
-        roll.lift(on_step=run.on_step)
+        try:
+            roll.lift(on_step=run.on_step)
+        except SolverDivergedError as err:      # the rolling result stands; only the rut is lost
+            if err.kind == "interrupted":
+                raise
+            log.warning("lift-off failed, the rut is not measured: %s", err)
+            outcome["lift_failure"] = str(err)
+            return None
         outcome["lifted"] = True
         return None
 
@@ -101,6 +109,8 @@ def run_constant_load(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, 
     if rut is not None:
         summary.update(rut)
         summary["files"]["rut_profile"] = "rut_profile.csv"
+    elif outcome["lift_failure"]:
+        summary.update(rut_depth_m=None, rebound_m=None, rut_note=f"lift-off failed: {outcome['lift_failure']}")
     if write_fields:
         summary["files"]["rut_picture"] = "rut.png"
     summary["files"]["travel_plot"] = "rolling.png"
