@@ -45,7 +45,7 @@ from .contact import RigidWheelContact
 from .options import DEFAULT_VOLUMETRIC_STRAIN, check_relaxation_length
 from .problem import PlasticityProblem
 from .stepping import (RelaxationFallback, RunInterrupted, SolverDivergedError, StepControl, advance_with_fallback,
-                       solve_load_path)
+                       solve_load_path, straight_path)
 
 __all__ = ["WheelIndentation", "IndentationStep", "LoadControlResult", "symmetry_factor",
            "DEFAULT_STEP_CONTROL", "DEFAULT_PETSC_OPTIONS"]
@@ -329,9 +329,8 @@ class WheelIndentation:
     def fallback(self) -> RelaxationFallback | None:
         """The relaxation fallback of a vertical move: ``relaxation_fallback`` over
         ``relaxation_stretch`` of sinkage; None when the soil is relaxed already or it is off."""
-        if self.relaxation_length > 0 or self.relaxation_fallback == 0:
-            return None
-        return RelaxationFallback(self.relaxation_fallback, self.relaxation_stretch, self.relaxed_spans)
+        return RelaxationFallback.unless_relaxed(self.relaxation_length, self.relaxation_fallback,
+                                                 self.relaxation_stretch, self.relaxed_spans)
 
     def _relax(self, length: float) -> None:
         """Set the relaxation length (m; 0: rate-independent) of the next steps."""
@@ -340,22 +339,26 @@ class WheelIndentation:
             self.problem.relaxation = math.inf
 
     def _push_to(self, target: float, control: StepControl, on_step) -> None:
-        """One displacement-controlled path from the current sinkage to ``target`` (m)."""
-        s0 = self.sinkage
-        span = target - s0
-
+        """One displacement-controlled path from the current sinkage to ``target`` (m), each
+        converged step recorded."""
         def on_t(t):
             st = self._record()
             if on_step is not None:
                 on_step(st)
             return {"QV": st.QV, "sinkage": st.sinkage}
 
-        def set_load(t):
+        self._sink_segment(target, control, on_t)
+
+    def _sink_segment(self, target: float, control: StepControl, on_t) -> None:
+        """:func:`solve_load_path` along a straight sinkage path from the current sinkage to
+        ``target`` (m); ``on_t`` after each converged step.  On failure the pose is back at the
+        last converged step; the relaxation is off after it."""
+        def place(s):
             self._attempts += 1
-            self._sink_to(s0 + span * t)
+            self._sink_to(s)
 
         try:
-            solve_load_path(self.problem, set_load, control, on_t)
+            solve_load_path(self.problem, straight_path(self.sinkage, target, place), control, on_t)
         except SolverDivergedError:
             self.set_sinkage(self.sinkage)
             raise
@@ -428,18 +431,9 @@ class WheelIndentation:
             return {"QV": f["QV"], "sinkage": s}
 
         bracket = None
-
-        def advance(to: float, c: StepControl) -> None:
-            s_from = self.sinkage
-
-            def set_load(t):
-                self._attempts += 1
-                self._sink_to(s_from + (to - s_from) * t)
-
-            solve_load_path(pb, set_load, c, on_t)
-
         try:
-            advance_with_fallback(advance, lambda: self.sinkage, [sinkage_limit], control, self.fallback(), self._relax)
+            advance_with_fallback(lambda to, c: self._sink_segment(to, c, on_t), lambda: self.sinkage,
+                                  [sinkage_limit], control, self.fallback(), self._relax)
         except _Bracketed as br:
             s_hi, Q_hi = br.args
             if s_hi is not None:

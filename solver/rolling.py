@@ -41,7 +41,8 @@ from .contact import PoseDerivatives
 from .indentation import LoadControlResult, WheelIndentation
 from .options import check_relaxation_length
 from .problem import NewtonReport
-from .stepping import RelaxationFallback, SolverDivergedError, StepControl, advance_with_fallback, solve_load_path
+from .stepping import (RelaxationFallback, SolverDivergedError, StepControl, advance_with_fallback, solve_load_path,
+                       straight_path)
 
 __all__ = ["WheelRolling", "RollingStep", "SteadyState", "detect_steady_state", "DEFAULT_ROLL_CONTROL",
            "STEADY_MIN_TRAVEL"]
@@ -318,13 +319,6 @@ class WheelRolling:
         """Sinkage stretches (m) the vertical moves (press, press to load) relaxed after a failure."""
         return self._ind.relaxed_spans
 
-    def _travel_fallback(self) -> RelaxationFallback | None:
-        """The relaxation fallback of a roll (None when the soil is relaxed already or it is off)."""
-        if self.relaxation_length > 0 or self.travel_relaxation_fallback == 0:
-            return None
-        return RelaxationFallback(self.travel_relaxation_fallback, TRAVEL_RELAXATION_STRETCH * self.d,
-                                  self.relaxed_travel)
-
     @property
     def cuts(self) -> int:
         return int(sum(st.cuts for st in self.steps))
@@ -356,16 +350,13 @@ class WheelRolling:
                 on_step(st)
             return {"QV": st.QV}
 
+        def place(s):
+            self._attempts += 1
+            self.problem.relax_over(abs(s - self.sinkage), self.relaxation_length)
+            self.contact.set_pose(centre=self._centre(x, s), angle=th)
+
         def advance(to: float, c: StepControl) -> None:
-            s_from = self.sinkage
-
-            def set_load(t):
-                self._attempts += 1
-                s = s_from + (to - s_from) * t
-                self.problem.relax_over(abs(s - self.sinkage), self.relaxation_length)
-                self.contact.set_pose(centre=self._centre(x, s), angle=th)
-
-            self._run(set_load, c, on_t)
+            self._run(straight_path(self.sinkage, to, place), c, on_t)
 
         if s_to > self.sinkage:
             advance_with_fallback(advance, lambda: self.sinkage, [s_to], control, self._ind.fallback(),
@@ -425,7 +416,9 @@ class WheelRolling:
 
         self._rolling = True
         try:
-            advance_with_fallback(advance, lambda: self.position - x0, [travel], control, self._travel_fallback(),
+            fallback = RelaxationFallback.unless_relaxed(self.relaxation_length, self.travel_relaxation_fallback,
+                                                         TRAVEL_RELAXATION_STRETCH * self.d, self.relaxed_travel)
+            advance_with_fallback(advance, lambda: self.position - x0, [travel], control, fallback,
                                   self._ind._relax, what="travel")
         finally:
             self._rolling = False

@@ -37,7 +37,7 @@ import numpy as np
 from rollsim.log import get_logger
 
 __all__ = ["StepControl", "StepRecord", "ConvergedState", "SolverDivergedError", "RunInterrupted",
-           "RelaxationFallback", "solve_load_path", "advance_with_fallback", "stop_on_signals"]
+           "RelaxationFallback", "solve_load_path", "advance_with_fallback", "straight_path", "stop_on_signals"]
 
 log = get_logger("solver")
 
@@ -290,6 +290,15 @@ class RelaxationFallback:
         if not (self.length >= 0 and self.stretch > 0 and math.isfinite(self.length + self.stretch)):
             raise ValueError(f"length must be >= 0 and stretch > 0, got {self.length!r}, {self.stretch!r}")
 
+    @classmethod
+    def unless_relaxed(cls, relaxation_length: float, length: float, stretch: float,
+                       spans: list[tuple[float, float]]) -> RelaxationFallback | None:
+        """The fallback of a path whose soil has ``relaxation_length`` (m) along the whole of it:
+        None when that is > 0 already (nothing to fall back to) or when ``length`` is 0 (off)."""
+        if relaxation_length > 0 or length == 0:
+            return None
+        return cls(length, stretch, spans)
+
     def applies(self, err: SolverDivergedError) -> bool:
         """Whether ``err`` may be retried relaxed: Newton diverged (not a guard or a signal)."""
         return self.length > 0 and err.kind == "newton_diverged"
@@ -330,12 +339,12 @@ def advance_with_fallback(advance: Callable[[float, StepControl], None], positio
                         fallback.spans.append((start, position()))
 
 
-def _reset_linear_solver(problem) -> None:
-    """Kept for callers of the old helper: ``PlasticityProblem.solve_increment`` now re-creates the
-    linear solver itself after a PETSc error (:meth:`PlasticityProblem.reset_linear_solver`)."""
-    reset = getattr(problem, "reset_linear_solver", None)
-    if reset is not None:
-        reset()
+def straight_path(start: float, end: float, place: Callable[[float], None]) -> Callable[[float], None]:
+    """``set_load`` of :func:`solve_load_path` for one straight segment of a path coordinate (m):
+    pseudo-time ``t`` in [0, 1] calls ``place(start + (end - start) t)``."""
+    def set_load(t: float) -> None:
+        place(start + (end - start) * t)
+    return set_load
 
 
 def _mpi_max():

@@ -493,3 +493,17 @@ def test_fallback_relaxes_the_stretch_after_a_failure_then_goes_on():
     with pytest.raises(SolverDivergedError):
         advance_with_fallback(stubborn, lambda: state["x"], [1.0], StepControl(), RelaxationFallback(1e-3, 0.1), relax)
     assert state["relax"] == 0.0
+    spans = []
+    assert RelaxationFallback.unless_relaxed(2e-3, 1e-3, 0.1, spans) is None       # relaxed along the path
+    assert RelaxationFallback.unless_relaxed(0.0, 0.0, 0.1, spans) is None         # fallback off
+    fb = RelaxationFallback.unless_relaxed(0.0, 1e-3, 0.1, spans)
+    assert (fb.length, fb.stretch) == (1e-3, 0.1) and fb.spans is spans
+
+
+def test_straight_path_places_the_coordinate_linearly_in_pseudo_time():
+    from rollsim.solver.stepping import straight_path
+    placed = []
+    set_load = straight_path(0.02, 0.05, placed.append)
+    for t in (0.0, 0.5, 1.0):
+        set_load(t)
+    assert placed == pytest.approx([0.02, 0.035, 0.05])

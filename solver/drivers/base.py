@@ -142,9 +142,9 @@ class ProtocolRun:
                  "relaxation_fallback_m": self.scene.model.relaxation_fallback,
                  "relaxed_spans_m": [list(span) for span in run.relaxed_spans],
                  "plateau_tolerance": run.problem.plateau_rtol}
-        relaxed_travel = getattr(run, "relaxed_travel", None)      # rolling only
+        travel_fallback, relaxed_travel = self.travel_relaxation()
         if relaxed_travel is not None:
-            model["travel_relaxation_fallback_m"] = run.travel_relaxation_fallback
+            model["travel_relaxation_fallback_m"] = travel_fallback
             model["relaxed_travel_m"] = [list(span) for span in relaxed_travel]
         if self.soil.regularised:
             model["regularising_cohesion_Pa"] = dict(self.soil.regularised)
@@ -153,9 +153,13 @@ class ProtocolRun:
             relaxation_length=run.relaxation_length, plateau_tolerance=run.problem.plateau_rtol,
             plateau_share=self.plateau_share, relaxation_fallback=self.scene.model.relaxation_fallback,
             relaxed_spans=run.relaxed_spans,
-            travel_relaxation_fallback=getattr(run, "travel_relaxation_fallback", 0.0),
-            relaxed_travel=relaxed_travel or ())
+            travel_relaxation_fallback=travel_fallback, relaxed_travel=relaxed_travel or ())
         return model
+
+    def travel_relaxation(self) -> tuple[float, list[tuple[float, float]] | None]:
+        """The travel relaxation fallback (m) and the relaxed travel stretches (m) of a rolling run;
+        ``(0.0, None)`` for a run without travel."""
+        return 0.0, None
 
     def summary(self, status: str, reason: str, **results) -> dict:
         """The keys of ``summary.json`` every protocol writes, then the protocol's ``results``
@@ -198,6 +202,9 @@ class RollingRun(ProtocolRun):
                                  **self.solver_options)
         self.attach(tagged, self.roll)
         self.bar = TravelProgress(scene.loading.travel, self.d, enabled=self.progress and self.root)
+
+    def travel_relaxation(self) -> tuple[float, list[tuple[float, float]]]:
+        return self.roll.travel_relaxation_fallback, self.roll.relaxed_travel
 
     def on_step(self, st) -> None:
         """A converged ``RollingStep``: history row, fields (time = step number), progress."""
