@@ -309,6 +309,28 @@ def _first_steady(x, s, qh, x_start, x_soft, window, min_travel=0.0):
     return None
 
 
+def test_heave_under_the_loaded_wheel_is_reported():
+    """A wheel that rides above the undisturbed surface on the test soil while loaded, or a rut
+    that is a heave, gets a warning naming the height and the check; heave on the stiff start
+    zone, on an unloaded step or within the tolerance does not."""
+    from rollsim.solver.drivers.rolling_constant_load import HEAVE_TOLERANCE, heave_warnings
+    d, load, x_start, x_soft = 1.5, 1e5, 0.6, 1.1
+    x = np.linspace(0.0, 2.0, 41)
+    s = 0.01 - 0.02 * np.clip((x_start + x - 1.5) / 0.5, 0.0, 1.0)       # down to -10 mm
+    lines = heave_warnings(_synthetic(x, s, np.full_like(x, 4e3)), x_soft, x_start, load, d, rut_depth=-0.004)
+    assert len(lines) == 3 and "rode 10 mm above the undisturbed surface" in lines[0]
+    assert "rut is a heave of 4 mm" in lines[1] and "relaxation_length" in lines[2]
+    fine = np.full_like(x, 0.01)
+    fine[x_start + x < x_soft] = -0.01                                    # on the stiff zone only
+    assert heave_warnings(_synthetic(x, fine, 0 * x), x_soft, x_start, load, d, rut_depth=0.002) == []
+    unloaded = _synthetic(x, s, 0 * x)
+    for st in unloaded:
+        st.QV = 0.4 * load
+    assert heave_warnings(unloaded, x_soft, x_start, load, d) == []
+    shallow = np.full_like(x, -0.9 * HEAVE_TOLERANCE * d)
+    assert heave_warnings(_synthetic(x, shallow, 0 * x), x_soft, x_start, load, d) == []
+
+
 def test_steady_state_detection():
     """Sinkage rising into the soft soil then flat with an element-passing ripple: steady state is
     found only once a whole contact-length window lies on the soft soil and the trends are flat;
@@ -416,6 +438,7 @@ def test_constant_load_rolling(tmp_mpi_path):
     assert summary["sinkage_m"] == pytest.approx(ss["sinkage"]) and summary["sinkage_m"] > 5 * s_stiff
     assert summary["QH_N"] > 0
     assert s_stiff < summary["rut_depth_m"] < summary["sinkage_m"]
+    assert summary["warnings"] == []                       # no heave on clay
     assert summary["rebound_m"] == pytest.approx(summary["sinkage_m"] - summary["rut_depth_m"])
     prof = np.loadtxt(tmp_mpi_path / "rut_profile.csv", delimiter=",", skiprows=1)
     assert prof.shape[1] == 2 and prof[:, 0].min() < summary["rut_window_m"][0]
