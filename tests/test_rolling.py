@@ -183,6 +183,11 @@ def _rolled(comm, material, relaxation_length: float, sinkage: float = 0.01 * D,
     """mu = 0.8 on the tiny block: pressed to ``sinkage`` (m), rolled 0.1 d at that sinkage; the
     last step.  ``weak``: the material below ``weak_from`` d (none when ``weak_from`` is None);
     ``kw``: further keywords of ``WheelRolling``."""
+    return _rolled_wheel(comm, material, relaxation_length, sinkage, weak, weak_from, **kw).steps[-1]
+
+
+def _rolled_wheel(comm, material, relaxation_length: float, sinkage: float, weak, weak_from, **kw) -> WheelRolling:
+    """The ``WheelRolling`` of :func:`_rolled` after its roll."""
     layers = () if weak_from is None else (weak_from,)
     materials = material if weak_from is None else {1: material, 2: weak}
     roll = WheelRolling(_tiny(comm, layers), CylinderWheel(D, B, B / 12), materials, gamma=GAMMA, friction=0.8,
@@ -191,7 +196,7 @@ def _rolled(comm, material, relaxation_length: float, sinkage: float = 0.01 * D,
     roll.press(sinkage)
     roll.roll(0.1 * D, sinkage)
     assert roll.problem.relaxation == math.inf          # rate-independent again after the move
-    return roll.steps[-1]
+    return roll
 
 
 def test_relaxation_converges_to_rate_independent_rolling(comm):
@@ -214,7 +219,8 @@ def test_travel_fallback_lets_non_associated_sand_roll(comm, tmp_mpi_path):
     next 0.1 d of travel and the wheel rolls to the end, the summary lists the stretch and its
     estimated effect.  Without the fallback the same roll stops with the failure (serially: on 2
     ranks the partition changes the path, which may then need no relaxation); halving the fallback
-    moves Q_V by less than 1 %."""
+    moves Q_V by less than 1 % (compared when both runs relaxed: an unrelaxed route reads about
+    3 % higher)."""
     scene = parse_scene({"wheel": {"diameter": D, "width": B, "friction": 0.8},
                          "soil": {"gamma": GAMMA, "layers": [SAND_13]},
                          "loading": {"protocol": "rolling-continuous", "max_sinkage": 0.01 * D, "travel": 0.1 * D},
@@ -232,9 +238,11 @@ def test_travel_fallback_lets_non_associated_sand_roll(comm, tmp_mpi_path):
     if comm.size == 1:
         with pytest.raises(SolverDivergedError, match="Newton diverged"):
             _rolled(comm, sand, 0.0, travel_relaxation_fallback=0.0)
-    half = _rolled(comm, sand, 0.0, travel_relaxation_fallback=2.5e-4)
+    roll = _rolled_wheel(comm, sand, 0.0, 0.01 * D, None, None, travel_relaxation_fallback=2.5e-4)
+    half = roll.steps[-1]
     assert half.travel == pytest.approx(0.1 * D) and half.sinkage == pytest.approx(0.01 * D)
-    if model["relaxed_travel_m"]:       # else a different, unrelaxed route (on 2 ranks): not comparable
+    assert roll.relaxed_travel or comm.size > 1
+    if model["relaxed_travel_m"] and roll.relaxed_travel:    # else different routes (on 2 ranks)
         assert half.QV == pytest.approx(summary["QV_N"], rel=0.01)
 
 
