@@ -52,7 +52,6 @@ def heave_warnings(steps, x_soft: float | None, x_start: float, load: float, d: 
     return lines
 
 
-
 def measure_rut(roll: WheelRolling, steady: SteadyState | None, x_soft: float | None, contact_length: float) -> dict:
     """Rut depth and rebound from the surface profile on the wheel path once the wheel has been
     lifted off (:meth:`WheelRolling.lift`; collective).
