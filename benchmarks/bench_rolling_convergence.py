@@ -10,7 +10,9 @@ Scenes (Mn/DOT roller, d = 1.524 m, b = 0.4572 m, towed at constant load on a ha
 2.6 x 0.8 x 0.8 d with a 0.5 d stiff start zone, as ``bench_rolling_protocols.py``):
 
 * ``clay``: von Mises q_y = 300 kPa, 100 kN, mu = 0;
-* ``case5``: Drucker-Prager phi_dp = 27.5 deg, c_dp = 194.6 kPa (psi = 0), 133.5 kN, mu = 0.8.
+* ``case5``: Drucker-Prager phi_dp = 27.5 deg, c_dp = 194.6 kPa (psi = 0), 133.5 kN, mu = 0.8;
+* ``sand``: the dense sand of layered case 13, Drucker-Prager phi_dp = 61.6 deg, c_dp = 18.5 kPa
+  (psi = 0, a steep non-associated cone), 133.5 kN, mu = 0.8.
 
 Each level is ``--refinement`` elements per diameter under the wheel (the presets are 8 / 20 / 50).
 The scored sinkage of a (soil, strain, block) is the steady sinkage at the detected steady state
@@ -20,8 +22,10 @@ element-passing ripple; the mean mixes in the approach when the wheel settles la
 strain it is extrapolated from the three finest levels (Richardson, with
 the observed order from the generalised three-level formula of Celik et al., J. Fluids Eng. 130
 (2008) 078001); a level's error is against that value.  Prints a Markdown table (``--table``
-rebuilds it from saved JSON files without solving).  ``--relaxation-length`` (mm) runs the
-levels with a Duvaut-Lions regularisation, ``--length`` / ``--travel`` (d) on a longer block
+rebuilds it from saved JSON files without solving; with ``--figure`` it also draws the sinkage along
+the travel of every level).  ``--relaxation-length`` (mm) runs the
+levels with a Duvaut-Lions regularisation along the whole path, ``--fallbacks`` relaxes only the
+steps that fail, as a plain ``rollsim run`` scene does, ``--length`` / ``--travel`` (d) on a longer block
 (both kept apart in the table).  Each level keeps its sinkage along the travel
 (``travel_sinkage``).  An existing ``--out`` file is resumed: the levels it holds are not solved
 again.
@@ -30,7 +34,9 @@ from __future__ import annotations
 
 import argparse
 import math
+import pathlib
 
+import numpy as np
 from mpi4py import MPI
 
 import bench_rolling_protocols as protocols
@@ -39,11 +45,12 @@ from _bench import ORDER_RANGE, dump_json, observed_order, saved_results
 from rollsim.solver.options import VOLUMETRIC_STRAINS
 
 SOILS = {"clay": ["--yield-stress", "300", "--load", "100", "--mu", "0"],
-         "case5": ["--yield-stress", "194.6", "--phi-dp", "27.5", "--load", "133.5", "--mu", "0.8"]}
+         "case5": ["--yield-stress", "194.6", "--phi-dp", "27.5", "--load", "133.5", "--mu", "0.8"],
+         "sand": ["--yield-stress", "18.5", "--phi-dp", "61.6", "--load", "133.5", "--mu", "0.8"]}
 #: block length and constant-load travel (in d) of the study's levels
 LENGTH, TRAVEL = 2.6, 1.5
 #: values of the run keys that results saved before the key existed were run with
-DEFAULTS = {"relaxation_length_mm": 0.0, "block_length_d": LENGTH, "travel_d": TRAVEL}
+DEFAULTS = {"relaxation_length_mm": 0.0, "fallbacks": False, "block_length_d": LENGTH, "travel_d": TRAVEL}
 
 
 def block_args(length: float = LENGTH, travel: float = TRAVEL) -> list[str]:
@@ -54,12 +61,12 @@ def block_args(length: float = LENGTH, travel: float = TRAVEL) -> list[str]:
 
 
 def level_args(soil: str, refinement: float, strain: str, relaxation_length: float = 0.0,
-               block: list[str] | None = None):
+               block: list[str] | None = None, fallbacks: bool = False):
     """The constant-load run of ``soil`` at ``refinement`` elements per d on ``block`` (arguments of
     ``bench_rolling_protocols.py``; default :func:`block_args`), as parsed arguments."""
     return protocols.parser().parse_args(SOILS[soil] + (block or block_args()) + [
         "--refinement", f"{refinement:g}", "--volumetric-strain", strain, "--skip-continuous",
-        "--relaxation-length", f"{relaxation_length:g}"])
+        "--relaxation-length", f"{relaxation_length:g}"] + ["--fallbacks"] * fallbacks)
 
 
 def sinkage(r: dict) -> float | None:
@@ -82,10 +89,28 @@ def formulation(r: dict) -> str:
     study's default."""
     ell = r.get("relaxation_length_mm", 0.0)
     text = f"{r['strain']}, {ell:g} mm relaxation" if ell else r["strain"]
+    if r.get("fallbacks"):
+        text += ", fallbacks"
     length, travel = r.get("block_length_d", LENGTH), r.get("travel_d", TRAVEL)
     if (length, travel) != (LENGTH, TRAVEL):
         text += f", {length:g} d block, {travel:g} d travel"
     return text
+
+
+def remarks(r: dict) -> list[str]:
+    """What the table's row of level ``r`` does not show: a failure (the level is not scored), the
+    stretches of travel its fallback relaxed, a rut that is a heave."""
+    out = []
+    if r.get("status", "ok") != "ok":
+        reached = f" after {r['travel_sinkage'][-1][0]:.2f} m of travel" if r.get("travel_sinkage") else ""
+        out.append(f"failed{reached}, not scored ({r['steps']} steps, {r['newton_iterations']} Newton its, "
+                   f"{r['time_s']:.0f} s)")
+    if r.get("relaxed_travel"):
+        length = sum(b - a for a, b in r["relaxed_travel"])
+        out.append(f"{len(r['relaxed_travel'])} stretch(es) relaxed, {length:.2f} m of travel")
+    if r.get("rut_depth", 0.0) < 0:
+        out.append(f"the rut is a heave of {-1e3 * r['rut_depth']:.1f} mm")
+    return out
 
 
 def table(results: list[dict]) -> str:
@@ -96,8 +121,11 @@ def table(results: list[dict]) -> str:
              "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     notes = []
     for key in sorted({(r["soil"], formulation(r)) for r in results}):
-        rows = sorted((r for r in results if (r["soil"], formulation(r)) == key and sinkage(r)),
+        group = [r for r in results if (r["soil"], formulation(r)) == key]
+        rows = sorted((r for r in group if r.get("status", "ok") == "ok" and sinkage(r)),
                       key=lambda r: -r["refinement"])
+        notes += [f"{key[0]}, {key[1]}, {r['refinement']:g} elements / d: {remark}"
+                  for r in sorted(group, key=lambda r: r["refinement"]) for remark in remarks(r)]
         scored, score = scorer(rows)
         fit = None
         if len(rows) >= 3:
@@ -123,6 +151,37 @@ def table(results: list[dict]) -> str:
     return "\n".join(lines + [""] + [f"- {n}" for n in notes])
 
 
+def travel_figure(path: pathlib.Path, results: list[dict]) -> bool:
+    """Sinkage along the travel of every level that kept it (``travel_sinkage``), one panel per
+    (soil, strain): where each level settles, or whether it drifts.  False: no level kept it."""
+    keys = sorted({(r["soil"], formulation(r)) for r in results if r.get("travel_sinkage")})
+    if not keys:
+        return False
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    cols = min(3, len(keys))
+    rows = -(-len(keys) // cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 3.0 * rows), squeeze=False)
+    for ax, key in zip(axes.flat, keys):
+        for r in sorted((r for r in results if (r["soil"], formulation(r)) == key and r.get("travel_sinkage")),
+                        key=lambda r: r["refinement"]):
+            x, s = np.array(r["travel_sinkage"], dtype=float).reshape(-1, 2).T
+            rolled = x > 0
+            ax.plot(x[rolled] / protocols.D, 1e3 * s[rolled], lw=1, label=f"{r['refinement']:g} / d")
+        ax.set_title(f"{key[0]}, {key[1]}", fontsize=8)
+        ax.set_xlabel("travel / d", fontsize=8)
+        ax.set_ylabel("sinkage (mm)", fontsize=8)
+        ax.tick_params(labelsize=7)
+        ax.legend(fontsize=7)
+    for ax in axes.flat[len(keys):]:
+        ax.axis("off")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return True
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--soil", choices=sorted(SOILS), default="clay")
@@ -130,27 +189,35 @@ def main(argv=None) -> int:
     p.add_argument("--volumetric-strain", choices=VOLUMETRIC_STRAINS, nargs="+", default=list(VOLUMETRIC_STRAINS))
     p.add_argument("--relaxation-length", type=float, default=0.0,
                    help="Duvaut-Lions relaxation length of the soil, mm of travel (0: off)")
+    p.add_argument("--fallbacks", action="store_true",
+                   help="relax a failed step as a plain rollsim run scene does (kept apart in the table)")
     p.add_argument("--length", type=float, default=LENGTH, help="block length, d (kept apart in the table)")
     p.add_argument("--travel", type=float, default=TRAVEL, help="constant-load travel limit, d")
     p.add_argument("--table", nargs="+", metavar="JSON", help="print the table of saved results and stop")
+    p.add_argument("--figure", type=pathlib.Path,
+                   help="with --table: draw the sinkage along the travel of every level to this file")
     p.add_argument("--out")
     args = p.parse_args(argv)
     comm = MPI.COMM_WORLD
     if args.table:
         if comm.rank == 0:
-            print(table(saved_results(args.table)))
+            results = saved_results(args.table)
+            print(table(results))
+            if args.figure and not travel_figure(args.figure, results):
+                print(f"{args.figure}: not drawn, no level kept its sinkage along the travel")
         return 0
     results = saved_results(args.out)
     for strain in args.volumetric_strain:
         for n in args.refinement:
             run = {"soil": args.soil, "strain": strain, "refinement": n,
-                   "relaxation_length_mm": args.relaxation_length, "block_length_d": args.length,
-                   "travel_d": args.travel}
+                   "relaxation_length_mm": args.relaxation_length, "fallbacks": args.fallbacks,
+                   "block_length_d": args.length, "travel_d": args.travel}
             if any(all(r.get(k, DEFAULTS.get(k, 0.0)) == v for k, v in run.items()) for r in results):
                 if comm.rank == 0:
                     print(f"{formulation(run)}, {n:g} elements / d: in {args.out}, not solved again", flush=True)
                 continue
-            level = level_args(args.soil, n, strain, args.relaxation_length, block_args(args.length, args.travel))
+            level = level_args(args.soil, n, strain, args.relaxation_length, block_args(args.length, args.travel),
+                               args.fallbacks)
             cl = protocols.constant_load(comm, level.mu[0], level)
             # the sinkage along the travel (m, m): where a level settles, or whether it drifts
             cl["travel_sinkage"] = [[round(x, 5), round(s, 7)] for x, s, _, _ in cl.pop("curve")]

@@ -6,7 +6,8 @@
 Soil: clay, von Mises q_y = ``--yield-stress`` (default 300 kPa, i.e. c = 150 kPa), E = 40 MPa,
 nu = 0.35, gamma = 20 kN/m^3; Mn/DOT roller wheel d = 1.524 m, b = 0.4572 m; half block
 (``--length/--half-width/--depth`` in d), ``--accuracy`` preset (or ``--refinement``, elements per d),
-``--volumetric-strain`` (default pointwise), ``--relaxation-length`` (mm; Duvaut-Lions, default off);
+``--volumetric-strain`` (default pointwise), ``--relaxation-length`` (mm; Duvaut-Lions, default off),
+``--fallbacks`` (the relaxation fallbacks of a plain ``rollsim run`` scene; default off: fail instead);
 ``--phi-dp`` > 0 makes the soil a Drucker-Prager cone with c_dp = ``--yield-stress``.
 
 For each friction coefficient mu:
@@ -41,6 +42,7 @@ from _bench import add_volumetric_strain, dump_json
 from rollsim.geometry import CylinderWheel, MeshOptions, build_soil_block, rolling_block
 from rollsim.solver import DruckerPrager, SolverDivergedError, VonMises
 from rollsim.solver.drivers.rolling_constant_load import measure_rut
+from rollsim.solver.options import DEFAULT_RELAXATION_FALLBACK, DEFAULT_TRAVEL_RELAXATION_FALLBACK
 from rollsim.solver.rolling import STEADY_MIN_TRAVEL, WheelRolling
 
 D, B, GAMMA = 1.524, 0.4572, 20e3
@@ -62,13 +64,22 @@ def soil(args):
     return VonMises(E=40e6, nu=0.35, yield_stress=args.yield_stress * 1e3)
 
 
+def regularisation(args) -> dict:
+    """Keywords of ``WheelRolling`` for the soil's regularisation: the relaxation length and, with
+    ``--fallbacks``, the relaxation fallbacks a plain scene gets."""
+    kw = {"relaxation_length": 1e-3 * args.relaxation_length}
+    if args.fallbacks:
+        kw.update(relaxation_fallback=DEFAULT_RELAXATION_FALLBACK,
+                  travel_relaxation_fallback=DEFAULT_TRAVEL_RELAXATION_FALLBACK)
+    return kw
+
+
 def constant_load(comm, mu, args):
     t0 = time.perf_counter()
     mat = soil(args)
     tm = _block(comm, args, args.stiff)
     roll = WheelRolling(tm, CylinderWheel(D, B, B / 12), mat, gamma=GAMMA, friction=mu,
-                        volumetric_strain=args.volumetric_strain,
-                        relaxation_length=1e-3 * args.relaxation_length)
+                        volumetric_strain=args.volumetric_strain, **regularisation(args))
     roll.gravity_step()
     load = args.load * 1e3
     out = {"mu": mu, "cells": tm.stats.cells, "dofs": roll.n_dofs, "status": "ok"}
@@ -90,6 +101,7 @@ def constant_load(comm, mu, args):
         out["status"] = f"failed: {err}"
     out.update(steps=len(roll.steps), newton_iterations=roll.newton_iterations, cuts=roll.cuts,
                time_s=comm.allreduce(time.perf_counter() - t0, op=MPI.MAX),
+               relaxed_travel=[[float(a), float(b)] for a, b in roll.relaxed_travel],
                curve=[(st.travel, st.sinkage, st.QV, st.QH) for st in roll.steps])
     out["settled"] = settled(out["curve"], load, args.settled * D)
     return out
@@ -119,8 +131,7 @@ def continuous(comm, mu, args, s_hold=None):
     t0 = time.perf_counter()
     mat = soil(args)
     roll = WheelRolling(_block(comm, args, 0.0, args.cont_length), CylinderWheel(D, B, B / 12), mat, gamma=GAMMA,
-                        friction=mu, volumetric_strain=args.volumetric_strain,
-                        relaxation_length=1e-3 * args.relaxation_length)
+                        friction=mu, volumetric_strain=args.volumetric_strain, **regularisation(args))
     roll.gravity_step()
     out = {"mu": mu, "status": "ok", "s_hold": s_hold}
     s_end = args.s_end * D if s_hold is None else s_hold
@@ -190,6 +201,8 @@ def parser() -> argparse.ArgumentParser:
     add_volumetric_strain(p)
     p.add_argument("--relaxation-length", type=float, default=0.0,
                    help="Duvaut-Lions relaxation length of the soil, mm of travel (0: off)")
+    p.add_argument("--fallbacks", action="store_true",
+                   help="relax a failed step as a plain rollsim run scene does (default: fail)")
     p.add_argument("--skip-continuous", action="store_true")
     p.add_argument("--skip-constant-load", action="store_true")
     p.add_argument("--out")

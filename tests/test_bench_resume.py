@@ -90,6 +90,53 @@ def test_rolling_convergence_scores_the_steady_sinkage_when_every_level_settled(
 
 
 @pytest.mark.serial
+def test_rolling_convergence_runs_the_scene_fallbacks_apart(benchmarks, tmp_path, monkeypatch):
+    """``--fallbacks`` gives the levels the relaxation fallbacks of a plain scene and keeps them
+    apart from the levels that fail instead."""
+    convergence, _ = benchmarks
+    passed = []
+
+    def solved(comm, mu, args):
+        passed.append(convergence.protocols.regularisation(args))
+        solution = {k: v for k, v in _level(6.0, 0.012).items() if k not in ("soil", "strain", "refinement")}
+        return {**solution, "status": "ok", "curve": [(0.1, 0.011, 1e5, 2e3)]}
+
+    monkeypatch.setattr(convergence.protocols, "constant_load", solved)
+    out = tmp_path / "levels.json"
+    for extra in ([], ["--fallbacks"]):
+        assert convergence.main(["--soil", "sand", "--refinement", "6", "--volumetric-strain", "pointwise",
+                                 "--out", str(out)] + extra) == 0
+    assert passed[0] == {"relaxation_length": 0.0}
+    assert passed[1]["travel_relaxation_fallback"] > 0 and passed[1]["relaxation_fallback"] > 0
+    saved = json.loads(out.read_text())["results"]
+    assert [convergence.formulation(r) for r in saved] == ["pointwise", "pointwise, fallbacks"]
+
+
+@pytest.mark.serial
+def test_rolling_convergence_table_names_failed_heaving_and_relaxed_levels(benchmarks, tmp_path, capsys):
+    """A failed level is not scored; a heave and the relaxed stretches are named under the table;
+    the figure draws the levels that kept their sinkage along the travel."""
+    convergence, _ = benchmarks
+    failed = _level(6.0, 0.010, status="failed: Newton diverged", travel_sinkage=[[0.0, 0.01], [0.5, 0.011]])
+    heaving = _level(8.0, 0.005, rut_depth=-0.012, relaxed_travel=[[0.4, 0.55], [0.9, 1.05]],
+                     travel_sinkage=[[0.0, 0.01], [0.5, 0.006], [1.0, 0.004]])
+    text = convergence.table([failed, heaving])
+    rows = [line for line in text.splitlines() if line.startswith("| case5")]
+    assert len(rows) == 1 and "| 8 |" in rows[0]
+    assert "6 elements / d: failed after 0.50 m of travel, not scored" in text
+    assert "8 elements / d: 2 stretch(es) relaxed, 0.30 m of travel" in text
+    assert "8 elements / d: the rut is a heave of 12.0 mm" in text
+    saved = tmp_path / "levels.json"
+    saved.write_text(json.dumps({"results": [failed, heaving]}))
+    figure = tmp_path / "travel.png"
+    assert convergence.main(["--table", str(saved), "--figure", str(figure)]) == 0
+    assert figure.stat().st_size > 0
+    saved.write_text(json.dumps({"results": [_level(6.0, 0.01)]}))
+    assert convergence.main(["--table", str(saved), "--figure", str(tmp_path / "none.png")]) == 0
+    assert "not drawn" in capsys.readouterr().out and not (tmp_path / "none.png").exists()
+
+
+@pytest.mark.serial
 def test_block_size_table_and_bad_block(benchmarks, tmp_path, capsys):
     _, block_size = benchmarks
     runs = [{"scene": "rolling-case5", "refinement": 8.0, "block": [2.6, w, w, 0.3, 0.4], "ranks": 1,
