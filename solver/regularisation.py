@@ -35,6 +35,13 @@ COHESION_MEASURED = (500.0, 2000.0)
 #: sinkage: +1.2 / +3.0 / +4.9 % at 0.5 / 1 / 2 mm; case-5 soil at constant load: sinkage -1.5 / -3.1 %
 #: at 0.5 / 1 mm); on dense sand (case 13) smaller (+0.9 % per halving near 1 mm)
 RELAXATION_ROLLING_PER_MM = 3.0
+#: rolling on a c = 0 sand (phi = 40 deg, psi = 0, mu = 0.8, fast, pointwise, continuous protocol):
+#: length (mm) -> (low, high) bias of Q_V at s/d = 0.01 / 0.02 / 0.03 (%) against the length-0
+#: extrapolations (Richardson and Aitken) of 0.25 / 0.5 / 1 mm: not first order, and large
+RELAXATION_ROLLING_C0 = ((0.25, (26.0, 98.0)), (0.5, (50.0, 153.0)), (1.0, (88.0, 238.0)))
+#: that sand's extrapolated Q_V grows as s**0.43-0.52 from s/d = 0.01 to 0.03: a constant load then
+#: finds the sinkage (1 + bias)**(-1 / RELAXATION_ROLLING_C0_EXPONENT) times the unrelaxed one
+RELAXATION_ROLLING_C0_EXPONENT = 0.5
 #: indentation of a c = 0 sand (phi = 40 deg, pointwise): length (mm) -> bias of Q_V at s/d = 0.1 (%)
 #: against the rate-independent 43.1 kN
 RELAXATION_INDENTATION = ((1 / 512, 15.0), (1 / 256, 25.0), (1 / 128, 29.0), (1 / 64, 43.0), (1 / 32, 63.0),
@@ -51,7 +58,7 @@ FALLBACK_BASIS = ("Q_V at s/d = 0.1 with the length halved: within 1.6 % on 24 a
 FALLBACK_MEASURED = (5e-6, 2e-5)
 
 
-#: travel fallback (default 0.5 mm over 0.1 d of travel after a failure): its effect is taken as at
+#: travel fallback (default 0.5 mm from a failure to the end of the roll): its effect is taken as at
 #: most that of relaxing the whole path by the same length (:func:`relaxation_bias`, 3 % per mm);
 #: measured on the dense sand of layered case 13 (tiny test block, 0.1 d rolled, the last 0.032 m
 #: relaxed): Q_V 140.34 / 140.60 / 141.06 kN at 0.25 / 0.5 / 1 mm
@@ -70,27 +77,50 @@ def cohesion_bias(c_reg: float) -> tuple[tuple[float, float], bool]:
     return (lo * scale, hi * scale), COHESION_MEASURED[0] <= c_reg <= COHESION_MEASURED[1]
 
 
-def relaxation_bias(length: float, protocol: str) -> tuple[tuple[float, float], bool]:
+def relaxation_bias(length: float, protocol: str, cohesionless: bool = False) -> tuple[tuple[float, float], bool]:
     """Estimated effect (%, low and high, as a magnitude) of a Duvaut-Lions relaxation ``length``
     (m) on the run's result, and whether ``length`` lies in the measured range.  Rolling: first
-    order, from 0 to :data:`RELAXATION_ROLLING_PER_MM` per mm.  Indentation: interpolated in
-    log(length) in :data:`RELAXATION_INDENTATION` (c = 0 sand; soils with cohesion were not
-    measured)."""
+    order, from 0 to :data:`RELAXATION_ROLLING_PER_MM` per mm; on a soil with a c = 0 layer
+    (``cohesionless``) interpolated in log(length) in :data:`RELAXATION_ROLLING_C0`.  Indentation:
+    interpolated in log(length) in :data:`RELAXATION_INDENTATION` (c = 0 sand; soils with cohesion
+    were not measured)."""
     mm = 1e3 * length
-    if protocol != "indentation":
+    if protocol != "indentation" and not cohesionless:
         return (0.0, RELAXATION_ROLLING_PER_MM * mm), 0.5 <= mm <= 4.0
-    lengths = [math.log(a) for a, _ in RELAXATION_INDENTATION]
-    biases = [b for _, b in RELAXATION_INDENTATION]
+    if protocol != "indentation":
+        lo, inside = _interpolated([(a, b[0]) for a, b in RELAXATION_ROLLING_C0], mm)
+        return (lo, _interpolated([(a, b[1]) for a, b in RELAXATION_ROLLING_C0], mm)[0]), inside
+    hi, inside = _interpolated(RELAXATION_INDENTATION, mm)
+    return (0.0, hi), inside
+
+
+def _interpolated(table, mm: float) -> tuple[float, bool]:
+    """The value of ``table`` ((length in mm, value), ascending) at ``mm``, linear in log(length)
+    and held at the ends, and whether ``mm`` lies inside the table."""
+    lengths = [math.log(a) for a, _ in table]
+    values = [b for _, b in table]
     x = math.log(mm)
     inside = lengths[0] <= x <= lengths[-1]
     x = min(max(x, lengths[0]), lengths[-1])
     k = next(i for i in range(1, len(lengths)) if x <= lengths[i])
     w = (x - lengths[k - 1]) / (lengths[k] - lengths[k - 1])
-    return (0.0, biases[k - 1] + w * (biases[k] - biases[k - 1])), inside
+    return values[k - 1] + w * (values[k] - values[k - 1]), inside
 
 
-def _signed(lo: float, hi: float, quantity: str) -> list[float]:
-    """A relaxation's effect range (%, magnitudes) with its sign: Q_V up, constant-load sinkage down."""
+def _rolling_basis(cohesionless: bool) -> str:
+    """Where the rolling estimate of a relaxation length comes from."""
+    if cohesionless:
+        return ("c = 0 sand, phi = 40 deg, continuous rolling: Q_V at s/d = 0.01-0.03 against the length-0 "
+                "extrapolations of 0.25 / 0.5 / 1 mm (not first order)")
+    return "first order in the length: clay and a c-phi soil about 3 % per mm, dense sand less"
+
+
+def _signed(lo: float, hi: float, quantity: str, cohesionless: bool = False) -> list[float]:
+    """A relaxation's effect range (%, magnitudes) with its sign: Q_V up, constant-load sinkage down
+    (on c = 0 soil the Q_V bias is turned into a sinkage through the force-sinkage exponent
+    :data:`RELAXATION_ROLLING_C0_EXPONENT`; elsewhere the measured ranges are first order)."""
+    if quantity == "sinkage" and cohesionless:
+        lo, hi = (100 * (1 - (1 + b / 100) ** (-1 / RELAXATION_ROLLING_C0_EXPONENT)) for b in (lo, hi))
     sign = -1 if quantity == "sinkage" else 1
     return sorted([round(sign * lo, 1) + 0.0, round(sign * hi, 1) + 0.0])
 
@@ -98,14 +128,15 @@ def _signed(lo: float, hi: float, quantity: str) -> list[float]:
 def regularisation_summary(protocol: str, *, regularised: dict, relaxation_length: float,
                            plateau_tolerance: float, plateau_share: float, relaxation_fallback: float = 0.0,
                            relaxed_spans=(), travel_relaxation_fallback: float = 0.0,
-                           relaxed_travel=()) -> list[dict]:
+                           relaxed_travel=(), cohesionless: bool = False) -> list[dict]:
     """The ``model.regularisation`` entries of a run (empty when it solved the scene as stated).
 
     protocol : loading protocol; regularised : ``{"soil.layers[i]": c_reg (Pa)}``;
     relaxation_length : m; plateau_tolerance : accepted plateau / internal-force norm;
     plateau_share : largest residual force an accepted plateau left, over that step's Q_V;
     relaxation_fallback : m; relaxed_spans : ``(from, to)`` sinkage (m) of each stretch it relaxed;
-    travel_relaxation_fallback : m; relaxed_travel : ``(from, to)`` travel (m) of each stretch it relaxed
+    travel_relaxation_fallback : m; relaxed_travel : ``(from, to)`` travel (m) of each stretch it relaxed;
+    cohesionless : a soil layer is solved with c = 0 exactly (a relaxation biases a roll far more)
     """
     quantity = "sinkage" if protocol == "rolling-constant-load" else "QV"
     entries = []
@@ -118,14 +149,14 @@ def regularisation_summary(protocol: str, *, regularised: dict, relaxation_lengt
                        "basis": "Q_V raised: c = 0 against c_reg, phi = 35-40 deg, s/d = 0.02-0.1, indentation"},
             "tighten": "lower model.regularising_cohesion; 0 keeps c = 0 exactly (slower)"})
     if relaxation_length > 0:
-        (lo, hi), measured = relaxation_bias(relaxation_length, protocol)
+        (lo, hi), measured = relaxation_bias(relaxation_length, protocol, cohesionless)
         entries.append({
             "kind": "duvaut_lions", "key": "model.relaxation_length", "value": relaxation_length, "unit": "m",
             "applies_to": "soil",
-            "effect": {"quantity": quantity, "percent": _signed(lo, hi, quantity), "measured_range": measured,
-                       "basis": ("first order in the length: clay and a c-phi soil about 3 % per mm, dense sand less"
-                                 if protocol != "indentation" else
-                                 "c = 0 sand, phi = 40 deg, Q_V at s/d = 0.1; soils with cohesion not measured")},
+            "effect": {"quantity": quantity, "percent": _signed(lo, hi, quantity, cohesionless),
+                       "measured_range": measured,
+                       "basis": _rolling_basis(cohesionless) if protocol != "indentation" else
+                       "c = 0 sand, phi = 40 deg, Q_V at s/d = 0.1; soils with cohesion not measured"},
             "tighten": "halve model.relaxation_length: the result should move by less than the accuracy needed"})
     if relaxed_spans:
         lo, hi = FALLBACK_BIAS
@@ -137,14 +168,15 @@ def regularisation_summary(protocol: str, *, regularised: dict, relaxation_lengt
                        "basis": FALLBACK_BASIS},
             "tighten": "halve model.relaxation_fallback and compare; 0 stops the run at the failure instead"})
     if relaxed_travel:
-        (lo, hi), _ = relaxation_bias(travel_relaxation_fallback, protocol)
+        (lo, hi), measured = relaxation_bias(travel_relaxation_fallback, protocol, cohesionless)
         entries.append({
             "kind": "duvaut_lions_travel_fallback", "key": "model.travel_relaxation_fallback",
             "value": travel_relaxation_fallback, "unit": "m",
             "applies_to": "soil, over " + ", ".join(f"travel = {a:.4g}-{b:.4g} m" for a, b in relaxed_travel),
-            "effect": {"quantity": quantity, "percent": _signed(lo, hi, quantity),
-                       "measured_range": TRAVEL_FALLBACK_MEASURED[0] <= travel_relaxation_fallback
-                       <= TRAVEL_FALLBACK_MEASURED[1], "basis": TRAVEL_FALLBACK_BASIS},
+            "effect": {"quantity": quantity, "percent": _signed(lo, hi, quantity, cohesionless),
+                       "measured_range": measured if cohesionless else TRAVEL_FALLBACK_MEASURED[0]
+                       <= travel_relaxation_fallback <= TRAVEL_FALLBACK_MEASURED[1],
+                       "basis": _rolling_basis(True) if cohesionless else TRAVEL_FALLBACK_BASIS},
             "tighten": "halve model.travel_relaxation_fallback and compare; 0 stops the run at the failure instead"})
     if plateau_share > 0:
         entries.append({

@@ -217,6 +217,7 @@ class SoilMaterials:
 
     by_layer: dict          # {layer id (1 = top): material}
     regularised: dict       # {"soil.layers[i]": regularising cohesion applied (Pa)}
+    cohesionless: bool = False      # a purely frictional layer is solved with c = 0 exactly
 
     @property
     def single_or_dict(self):
@@ -232,4 +233,4 @@ def layer_materials(scene) -> SoilMaterials:
         by_layer[k], reg = _layer_material(layer, k - 1, c_reg)
         if reg:
             regularised[f"soil.layers[{k - 1}]"] = c_reg
-    return SoilMaterials(by_layer, regularised)
+    return SoilMaterials(by_layer, regularised, cohesionless=bool(set(frictional_layers(scene)) - set(regularised)))

@@ -38,6 +38,15 @@ def test_relaxation_bias_follows_the_measured_tables():
     assert not relaxation_bias(1e-7, "indentation")[1]            # shorter than measured: flagged
     (lo, hi), inside = relaxation_bias(1e-3, "rolling-continuous")
     assert (lo, hi) == (0.0, pytest.approx(3.0)) and inside       # about 3 % per mm, first order
+    # c = 0 exactly: the rolling table (docs/limitations.md, "Purely frictional soil": Q_V at
+    # s/d = 0.01 / 0.02 / 0.03 with 1 mm, against the Richardson and Aitken values at length 0)
+    qv_1mm, qv_0 = (17.7, 29.2, 39.2), ((9.4, 7.2), (13.8, 11.7), (16.6, 11.6))
+    measured = [100 * (q / q0 - 1) for q, pair in zip(qv_1mm, qv_0) for q0 in pair]
+    (lo, hi), inside = relaxation_bias(1e-3, "rolling-continuous", cohesionless=True)
+    assert inside and lo == pytest.approx(min(measured), abs=0.5) and hi == pytest.approx(max(measured), abs=0.5)
+    (lo, hi), inside = relaxation_bias(5e-4, "rolling-constant-load", cohesionless=True)
+    assert inside and (lo, hi) == (50.0, 153.0)
+    assert not relaxation_bias(2e-3, "rolling-continuous", cohesionless=True)[1]
 
 
 def test_regularisation_summary_lists_what_was_applied():
@@ -83,3 +92,8 @@ def test_travel_fallback_is_listed_with_its_stretches():
     (entry,) = regularisation_summary("rolling-continuous", travel_relaxation_fallback=2e-3,
                                       relaxed_travel=[(0.5, 0.65)], **kw)
     assert entry["effect"]["percent"] == [0.0, 6.0] and not entry["effect"]["measured_range"]
+    (entry,) = regularisation_summary("rolling-constant-load", travel_relaxation_fallback=5e-4,
+                                      relaxed_travel=[(0.5, 2.2)], cohesionless=True, **kw)
+    # Q_V +50 to +153 % at 0.5 mm, Q_V ~ s**0.5: the sinkage 1.5**-2 to 2.53**-2 of the unrelaxed one
+    assert entry["effect"]["percent"] == [-84.4, -55.6] and entry["effect"]["measured_range"]
+    assert "c = 0 sand" in entry["effect"]["basis"]

@@ -11,7 +11,7 @@ import pytest
 from rollsim.scene import load_scene, parse_scene
 from rollsim.solver.run import run_scene
 from rollsim.solver.rundir import HISTORY_COLUMNS
-from rollsim.solver.scene_model import layer_material
+from rollsim.solver.scene_model import layer_material, layer_materials
 
 
 def _scene(max_sinkage="0.03 m", **layer):
@@ -163,6 +163,21 @@ def test_layer_materials_from_scene():
     s = math.sin(math.radians(30))
     assert math.tan(dp.phi_dp) == pytest.approx(6 * s / (3 - s))
     assert dp.c_dp == pytest.approx(6 * 10e3 * math.cos(math.radians(30)) / (3 - s))
+
+
+def test_soil_materials_say_whether_c_0_is_solved_exactly():
+    """A c = 0 layer is regularised by default (its cohesion listed); with regularising_cohesion = 0
+    the soil is cohesionless, which the rolling relaxation estimates depend on."""
+    def soil(c, c_reg=None):
+        model = {} if c_reg is None else {"regularising_cohesion": c_reg}
+        return layer_materials(parse_scene({
+            "wheel": {"diameter": 1.0, "width": 0.3}, "model": model,
+            "soil": {"gamma": 20e3, "layers": [{"model": "drucker-prager", "E": 1e7, "nu": 0.3, "c": c, "phi": 35,
+                                                "match": "plane-strain"}]},
+            "loading": {"protocol": "rolling-constant-load", "load": 1e4, "travel": 0.5}}))
+    assert soil(0.0).regularised == {"soil.layers[0]": 1e3} and not soil(0.0).cohesionless
+    assert soil(0.0, 0.0).regularised == {} and soil(0.0, 0.0).cohesionless
+    assert not soil(5e3, 0.0).cohesionless
 
 
 def test_example_scene_loads(comm):

@@ -153,7 +153,8 @@ class ProtocolRun:
             relaxation_length=run.relaxation_length, plateau_tolerance=run.problem.plateau_rtol,
             plateau_share=self.plateau_share, relaxation_fallback=self.scene.model.relaxation_fallback,
             relaxed_spans=run.relaxed_spans,
-            travel_relaxation_fallback=travel_fallback, relaxed_travel=relaxed_travel or ())
+            travel_relaxation_fallback=travel_fallback, relaxed_travel=relaxed_travel or (),
+            cohesionless=self.soil.cohesionless)
         return model
 
     def travel_relaxation(self) -> tuple[float, list[tuple[float, float]] | None]:
