@@ -49,6 +49,8 @@ SOILS = {"clay": ["--yield-stress", "300", "--load", "100", "--mu", "0"],
          "sand": ["--yield-stress", "18.5", "--phi-dp", "61.6", "--load", "133.5", "--mu", "0.8"]}
 #: block length and constant-load travel (in d) of the study's levels
 LENGTH, TRAVEL = 2.6, 1.5
+#: how a plain scene's travel fallback relaxes a roll (``--fallbacks``)
+FALLBACK_ROUTE = "relaxed from the first failure on"
 #: values of the run keys that results saved before the key existed were run with
 DEFAULTS = {"relaxation_length_mm": 0.0, "fallbacks": False, "block_length_d": LENGTH, "travel_d": TRAVEL}
 
@@ -89,8 +91,9 @@ def formulation(r: dict) -> str:
     study's default."""
     ell = r.get("relaxation_length_mm", 0.0)
     text = f"{r['strain']}, {ell:g} mm relaxation" if ell else r["strain"]
-    if r.get("fallbacks"):
-        text += ", fallbacks"
+    route = r.get("fallbacks")
+    if route:       # True: saved when a failed roll was relaxed over 0.1 d stretches only
+        text += ", fallbacks over 0.1 d stretches" if route is True else f", fallback {route}"
     length, travel = r.get("block_length_d", LENGTH), r.get("travel_d", TRAVEL)
     if (length, travel) != (LENGTH, TRAVEL):
         text += f", {length:g} d block, {travel:g} d travel"
@@ -108,6 +111,8 @@ def remarks(r: dict) -> list[str]:
     if r.get("relaxed_travel"):
         length = sum(b - a for a, b in r["relaxed_travel"])
         out.append(f"{len(r['relaxed_travel'])} stretch(es) relaxed, {length:.2f} m of travel")
+    if r.get("lift_failure"):
+        out.append("the lift-off failed, the rut is not measured")
     if r.get("rut_depth", 0.0) < 0:
         out.append(f"the rut is a heave of {-1e3 * r['rut_depth']:.1f} mm")
     return out
@@ -210,7 +215,7 @@ def main(argv=None) -> int:
     for strain in args.volumetric_strain:
         for n in args.refinement:
             run = {"soil": args.soil, "strain": strain, "refinement": n,
-                   "relaxation_length_mm": args.relaxation_length, "fallbacks": args.fallbacks,
+                   "relaxation_length_mm": args.relaxation_length, "fallbacks": args.fallbacks and FALLBACK_ROUTE,
                    "block_length_d": args.length, "travel_d": args.travel}
             if any(all(r.get(k, DEFAULTS.get(k, 0.0)) == v for k, v in run.items()) for r in results):
                 if comm.rank == 0:

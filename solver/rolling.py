@@ -57,8 +57,6 @@ DEFAULT_ROLL_CONTROL = dict(dt=0.25, dt_min=1e-3, dt_max=0.5, easy_iterations=8,
 #: 0.3-0.6 d past the zone's end and the sinkage had settled by 0.7-0.95 d (docs, "Do the two
 #: protocols agree?" and the Mn/DOT run)
 STEADY_MIN_TRAVEL = 0.75
-#: travel over which a fallback relaxation acts after a failure, in wheel diameters
-TRAVEL_RELAXATION_STRETCH = 0.1
 
 
 @dataclass
@@ -229,8 +227,8 @@ class WheelRolling:
     regularisation of the soil while the wheel moves (press, roll, lift), with the wheel's path
     as pseudo-time: a step that moves the wheel by ``dx`` has ``r = dx / relaxation_length``
     (see :func:`~rollsim.solver.return_map.duvaut_lions`); ``travel_relaxation_fallback`` (m, 0: off):
-    the relaxation length a roll falls back to over the next ``TRAVEL_RELAXATION_STRETCH`` d of travel
-    when Newton fails after step cutting on the unregularised soil (the vertical moves fall back to
+    the relaxation length a roll falls back to, from the first step where Newton fails after step
+    cutting on the unregularised soil to the end of the roll (the vertical moves fall back to
     ``relaxation_fallback`` as :meth:`WheelIndentation.push`); other keywords as :class:`WheelIndentation`.
     """
 
@@ -265,6 +263,7 @@ class WheelRolling:
         self.travel_relaxation_fallback = check_relaxation_length(travel_relaxation_fallback)
         #: ``(from, to)`` travel (m) of each stretch a roll relaxed after a failure
         self.relaxed_travel: list[tuple[float, float]] = []
+        self._roll_relaxation = 0.0              # m: the fallback relaxation the last roll ended with
         self.moment_rtol = float(moment_rtol)
         self.steps: list[RollingStep] = []
         self.target_load: float | None = None   # N, whole wheel: set by roll_at_load
@@ -414,22 +413,38 @@ class WheelRolling:
         def advance(to: float, c: StepControl) -> None:
             self._run(set_load, replace(c, t_end=to), on_t, t_start=self.position - x0)
 
+        relaxed_before = len(self.relaxed_travel)
         self._rolling = True
         try:
+            # relaxed to the end of the roll: on dense non-associated sand, rate-independent travel
+            # between relaxed stretches localised, heaved and did not converge with the mesh, the
+            # relaxed path did (docs/speed-accuracy.md, "Dense sand")
             fallback = RelaxationFallback.unless_relaxed(self.relaxation_length, self.travel_relaxation_fallback,
-                                                         TRAVEL_RELAXATION_STRETCH * self.d, self.relaxed_travel)
+                                                         math.inf, self.relaxed_travel)
             advance_with_fallback(advance, lambda: self.position - x0, [travel], control, fallback,
                                   self._ind._relax, what="travel")
         finally:
             self._rolling = False
+            relaxed = len(self.relaxed_travel) > relaxed_before
+            self._roll_relaxation = self.travel_relaxation_fallback if relaxed else 0.0
         return self.steps
 
     def lift(self, on_step: Callable[[RollingStep], None] | None = None) -> list[RollingStep]:
         """Lift the wheel vertically off the soil at the current position (displacement control in
         four steps, to 0.1 % of R above the undisturbed surface): the soil rebounds, and the
-        surface keeps only the permanent rut."""
-        return self._move_vertically(-1e-3 * self.R, StepControl(t_end=1.0, dt=0.25, dt_min=1e-3, dt_max=0.25,
-                                                                 max_cuts=8), on_step)
+        surface keeps only the permanent rut.  After a roll that ended relaxed by its travel
+        fallback the soil stays relaxed by the same length through the lift-off (rate-independent,
+        the unloading of such a rut diverged on dense sand)."""
+        length = self._roll_relaxation
+        if length > 0:
+            log.info("lift-off relaxed as the roll before it (Duvaut-Lions, %.3g mm)", 1e3 * length)
+            self._ind._relax(length)
+        try:
+            return self._move_vertically(-1e-3 * self.R, StepControl(t_end=1.0, dt=0.25, dt_min=1e-3, dt_max=0.25,
+                                                                     max_cuts=8), on_step)
+        finally:
+            if length > 0:
+                self._ind._relax(0.0)
 
     def press_to_load(self, load: float, sinkage_limit: float,
                       on_step: Callable[[RollingStep], None] | None = None) -> LoadControlResult:

@@ -279,15 +279,16 @@ def solve_load_path(problem, set_load: Callable[[float], None], control: StepCon
 class RelaxationFallback:
     """Duvaut-Lions fallback of a path on the unregularised soil (see :func:`advance_with_fallback`):
     when Newton fails after step cutting, the path goes on relaxed with ``length`` (m of the path's
-    coordinate; 0: off) over the next ``stretch`` (m of that coordinate), then rate-independent
-    again.  ``spans`` collects the ``(from, to)`` coordinate of every relaxed stretch."""
+    coordinate; 0: off) over the next ``stretch`` (m of that coordinate; ``math.inf``: up to the
+    target being moved to), then rate-independent again.  ``spans`` collects the ``(from, to)`` coordinate of
+    every relaxed stretch."""
 
     length: float
     stretch: float
     spans: list[tuple[float, float]] = field(default_factory=list)
 
     def __post_init__(self):
-        if not (self.length >= 0 and self.stretch > 0 and math.isfinite(self.length + self.stretch)):
+        if not (self.length >= 0 and self.stretch > 0 and math.isfinite(self.length)):
             raise ValueError(f"length must be >= 0 and stretch > 0, got {self.length!r}, {self.stretch!r}")
 
     @classmethod
@@ -328,8 +329,8 @@ def advance_with_fallback(advance: Callable[[float, StepControl], None], positio
                 start = position()
                 end = min(target, start + fallback.stretch)
                 log.warning("Newton failed at %s = %.5g m: the soil is relaxed (Duvaut-Lions, %.3g mm) up to "
-                            "%s = %.5g m, then the rate-independent path goes on", what, start,
-                            1e3 * fallback.length, what, end)
+                            "%s = %.5g m%s", what, start, 1e3 * fallback.length, what, end,
+                            ", the end of the move" if end == target else ", then the rate-independent path goes on")
                 relax(fallback.length)
                 try:
                     advance(end, remaining())

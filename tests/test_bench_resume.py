@@ -109,7 +109,8 @@ def test_rolling_convergence_runs_the_scene_fallbacks_apart(benchmarks, tmp_path
     assert passed[0] == {"relaxation_length": 0.0}
     assert passed[1]["travel_relaxation_fallback"] > 0 and passed[1]["relaxation_fallback"] > 0
     saved = json.loads(out.read_text())["results"]
-    assert [convergence.formulation(r) for r in saved] == ["pointwise", "pointwise, fallbacks"]
+    assert [convergence.formulation(r) for r in saved] == ["pointwise", "pointwise, fallback relaxed from the first failure on"]
+    assert convergence.formulation({**saved[1], "fallbacks": True}) == "pointwise, fallbacks over 0.1 d stretches"
 
 
 @pytest.mark.serial

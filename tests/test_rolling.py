@@ -216,11 +216,11 @@ SAND_13 = {"model": "drucker-prager", "E": 40e6, "nu": 0.35, "phi_dp": 61.6, "c_
 def test_travel_fallback_lets_non_associated_sand_roll(comm, tmp_mpi_path):
     """Dense sand with non-associated flow (layered case 13: phi_dp = 61.6 deg, psi = 0), plain
     scene: Newton fails during the roll on the unregularised soil; the travel fallback relaxes the
-    next 0.1 d of travel and the wheel rolls to the end, the summary lists the stretch and its
+    rest of the roll from there and the wheel rolls to the end, the summary lists the stretch and its
     estimated effect.  Without the fallback the same roll stops with the failure (serially: on 2
     ranks the partition changes the path, which may then need no relaxation); halving the fallback
     moves Q_V by less than 1 % (compared when both runs relaxed: an unrelaxed route reads about
-    3 % higher)."""
+    3 % higher); the lift-off after a relaxed roll is relaxed too."""
     scene = parse_scene({"wheel": {"diameter": D, "width": B, "friction": 0.8},
                          "soil": {"gamma": GAMMA, "layers": [SAND_13]},
                          "loading": {"protocol": "rolling-continuous", "max_sinkage": 0.01 * D, "travel": 0.1 * D},
@@ -244,6 +244,11 @@ def test_travel_fallback_lets_non_associated_sand_roll(comm, tmp_mpi_path):
     assert roll.relaxed_travel or comm.size > 1
     if model["relaxed_travel_m"] and roll.relaxed_travel:    # else different routes (on 2 ranks)
         assert half.QV == pytest.approx(summary["QV_N"], rel=0.01)
+    # the roll ended relaxed: so does its lift-off, and the soil is rate-independent after it
+    relaxation = []
+    roll.lift(on_step=lambda st: relaxation.append(roll.problem.relaxation))
+    assert roll.sinkage < 0 and roll.problem.relaxation == math.inf
+    assert all(math.isfinite(r) for r in relaxation) == bool(roll.relaxed_travel) and relaxation
 
 
 def _drops(comm, top, weak, depths, sinkage, relaxation_length=0.0) -> tuple[float, dict]:

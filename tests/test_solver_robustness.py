@@ -493,6 +493,12 @@ def test_fallback_relaxes_the_stretch_after_a_failure_then_goes_on():
     with pytest.raises(SolverDivergedError):
         advance_with_fallback(stubborn, lambda: state["x"], [1.0], StepControl(), RelaxationFallback(1e-3, 0.1), relax)
     assert state["relax"] == 0.0
+    hard[:] = [0.3, 0.55]                                     # relaxed from a failure to the end of its target
+    state.update(x=0.0)
+    switched.clear()
+    fb = RelaxationFallback(length=1e-3, stretch=math.inf)
+    advance_with_fallback(advance, lambda: state["x"], [0.5, 1.0], StepControl(), fb, relax)
+    assert state["x"] == 1.0 and switched == [1e-3, 0.0, 1e-3, 0.0] and fb.spans == [(0.29, 0.5), (0.54, 1.0)]
     spans = []
     assert RelaxationFallback.unless_relaxed(2e-3, 1e-3, 0.1, spans) is None       # relaxed along the path
     assert RelaxationFallback.unless_relaxed(0.0, 0.0, 0.1, spans) is None         # fallback off
