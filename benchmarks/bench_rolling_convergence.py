@@ -172,7 +172,8 @@ def travel_figure(path: pathlib.Path, results: list[dict]) -> bool:
         for r in sorted((r for r in results if (r["soil"], formulation(r)) == key and r.get("travel_sinkage")),
                         key=lambda r: r["refinement"]):
             x, s = np.array(r["travel_sinkage"], dtype=float).reshape(-1, 2).T
-            rolled = x > 0
+            _, first = np.unique(x, return_index=True)      # the rolled steps: not the press, not the lift-off
+            rolled = first[x[first] > 0]
             ax.plot(x[rolled] / protocols.D, 1e3 * s[rolled], lw=1, label=f"{r['refinement']:g} / d")
         ax.set_title(f"{key[0]}, {key[1]}", fontsize=8)
         ax.set_xlabel("travel / d", fontsize=8)
