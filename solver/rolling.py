@@ -417,8 +417,9 @@ class WheelRolling:
         self._rolling = True
         try:
             # relaxed to the end of the roll: on dense non-associated sand, rate-independent travel
-            # between relaxed stretches localised, heaved and did not converge with the mesh, the
-            # relaxed path did (docs/speed-accuracy.md, "Dense sand")
+            # between relaxed stretches localised and heaved at 3-4x the Newton iterations; relaxed
+            # from the failure on, the sinkage follows the whole-path relaxed one as the mesh is
+            # refined (docs/limitations.md, "Travel relaxation fallback")
             fallback = RelaxationFallback.unless_relaxed(self.relaxation_length, self.travel_relaxation_fallback,
                                                          math.inf, self.relaxed_travel)
             advance_with_fallback(advance, lambda: self.position - x0, [travel], control, fallback,

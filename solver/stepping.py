@@ -280,8 +280,8 @@ class RelaxationFallback:
     """Duvaut-Lions fallback of a path on the unregularised soil (see :func:`advance_with_fallback`):
     when Newton fails after step cutting, the path goes on relaxed with ``length`` (m of the path's
     coordinate; 0: off) over the next ``stretch`` (m of that coordinate; ``math.inf``: up to the
-    target being moved to), then rate-independent again.  ``spans`` collects the ``(from, to)`` coordinate of
-    every relaxed stretch."""
+    target being moved to), then rate-independent again.  ``spans`` collects the ``(from, to)``
+    coordinate of every relaxed stretch."""
 
     length: float
     stretch: float
