@@ -118,6 +118,14 @@ def remarks(r: dict) -> list[str]:
     return out
 
 
+def groups(results: list[dict]) -> dict[tuple[str, str], list[dict]]:
+    """The levels of ``results`` by (soil, strain with its relaxation, fallback and block), sorted."""
+    out: dict[tuple[str, str], list[dict]] = {}
+    for r in results:
+        out.setdefault((r["soil"], formulation(r)), []).append(r)
+    return dict(sorted(out.items()))
+
+
 def table(results: list[dict]) -> str:
     """Markdown table of the levels of each (soil, strain): sinkage, change against the next
     coarser level, error against the extrapolated value, cost."""
@@ -125,8 +133,7 @@ def table(results: list[dict]) -> str:
              "| change vs coarser | error vs extrapolated | steps | Newton its | cuts | wall time (ranks) |",
              "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
     notes = []
-    for key in sorted({(r["soil"], formulation(r)) for r in results}):
-        group = [r for r in results if (r["soil"], formulation(r)) == key]
+    for key, group in groups(results).items():
         rows = sorted((r for r in group if r.get("status", "ok") == "ok" and sinkage(r)),
                       key=lambda r: -r["refinement"])
         notes += [f"{key[0]}, {key[1]}, {r['refinement']:g} elements / d: {remark}"
@@ -159,18 +166,18 @@ def table(results: list[dict]) -> str:
 def travel_figure(path: pathlib.Path, results: list[dict]) -> bool:
     """Sinkage along the travel of every level that kept it (``travel_sinkage``), one panel per
     (soil, strain): where each level settles, or whether it drifts.  False: no level kept it."""
-    keys = sorted({(r["soil"], formulation(r)) for r in results if r.get("travel_sinkage")})
-    if not keys:
+    kept = {key: [r for r in group if r.get("travel_sinkage")] for key, group in groups(results).items()}
+    kept = {key: group for key, group in kept.items() if group}
+    if not kept:
         return False
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-    cols = min(3, len(keys))
-    rows = -(-len(keys) // cols)
+    cols = min(3, len(kept))
+    rows = -(-len(kept) // cols)
     fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 3.0 * rows), squeeze=False)
-    for ax, key in zip(axes.flat, keys):
-        for r in sorted((r for r in results if (r["soil"], formulation(r)) == key and r.get("travel_sinkage")),
-                        key=lambda r: r["refinement"]):
+    for ax, (key, group) in zip(axes.flat, kept.items()):
+        for r in sorted(group, key=lambda r: r["refinement"]):
             x, s = np.array(r["travel_sinkage"], dtype=float).reshape(-1, 2).T
             _, first = np.unique(x, return_index=True)      # the rolled steps: not the press, not the lift-off
             rolled = first[x[first] > 0]
@@ -180,7 +187,7 @@ def travel_figure(path: pathlib.Path, results: list[dict]) -> bool:
         ax.set_ylabel("sinkage (mm)", fontsize=8)
         ax.tick_params(labelsize=7)
         ax.legend(fontsize=7)
-    for ax in axes.flat[len(keys):]:
+    for ax in axes.flat[len(kept):]:
         ax.axis("off")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
