@@ -42,9 +42,11 @@ fi
 stamp="$venv/.rollsim-install-stamp"
 want=$(cat "$here/pyproject.toml" "$here/tools/install.sh" | sha256sum | cut -c1-16)
 if [ "$(cat "$stamp" 2>/dev/null)" != "$want" ]; then
-  # Pin numpy to the system version: pip packages must never replace it.
+  # Pin numpy to the system version: pip packages must never replace it. Keep markdown-it-py
+  # below 3 for Debian's myst-parser (the docs build); pyvista's rich pulls it in.
   constraints="$venv/constraints.txt"
   /usr/bin/python3 -c 'import numpy; print(f"numpy=={numpy.__version__}")' > "$constraints"
+  echo "markdown-it-py<3" >> "$constraints"
   echo "rollsim install: pip install -e $here" >&2
   "$venv/bin/pip" install -q --disable-pip-version-check --no-build-isolation \
     -c "$constraints" -e "$here"
