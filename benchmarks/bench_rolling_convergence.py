@@ -50,7 +50,7 @@ SOILS = {"clay": ["--yield-stress", "300", "--load", "100", "--mu", "0"],
 #: block length and constant-load travel (in d) of the study's levels
 LENGTH, TRAVEL = 2.6, 1.5
 #: how a plain scene's travel fallback relaxes a roll (``--fallbacks``)
-FALLBACK_ROUTE = "relaxed from the first failure on"
+FALLBACK_ROUTE = "started over relaxed"
 #: values of the run keys that results saved before the key existed were run with
 DEFAULTS = {"relaxation_length_mm": 0.0, "fallbacks": False, "block_length_d": LENGTH, "travel_d": TRAVEL}
 
@@ -102,7 +102,7 @@ def formulation(r: dict) -> str:
 
 def remarks(r: dict) -> list[str]:
     """What the table's row of level ``r`` does not show: a failure (the level is not scored), the
-    stretches of travel its fallback relaxed, a rut that is a heave."""
+    stretches of travel its fallback relaxed and where a roll started over, a rut that is a heave."""
     out = []
     if r.get("status", "ok") != "ok":
         reached = f" after {r['travel_sinkage'][-1][0]:.2f} m of travel" if r.get("travel_sinkage") else ""
@@ -111,6 +111,8 @@ def remarks(r: dict) -> list[str]:
     if r.get("relaxed_travel"):
         length = sum(b - a for a, b in r["relaxed_travel"])
         out.append(f"{len(r['relaxed_travel'])} stretch(es) relaxed, {length:.2f} m of travel")
+    for failed in r.get("travel_failures", []):
+        out.append(f"the rate-independent roll failed after {failed:.2f} m and started over relaxed")
     if r.get("lift_failure"):
         out.append("the lift-off failed, the rut is not measured")
     if r.get("rut_depth", 0.0) < 0:

@@ -106,6 +106,7 @@ def constant_load(comm, mu, args):
     out.update(steps=len(roll.steps), newton_iterations=roll.newton_iterations, cuts=roll.cuts,
                time_s=comm.allreduce(time.perf_counter() - t0, op=MPI.MAX),
                relaxed_travel=[[float(a), float(b)] for a, b in roll.relaxed_travel],
+               travel_failures=[float(x) for x in roll.travel_failures],
                curve=[(st.travel, st.sinkage, st.QV, st.QH) for st in roll.steps])
     out["settled"] = settled(out["curve"], load, args.settled * D)
     return out

@@ -89,7 +89,7 @@ class ModelSpec:
     volumetric_strain: str = DEFAULT_VOLUMETRIC_STRAIN   # parse_scene: default_volumetric_strain(protocol, accuracy)
     relaxation_length: float = DEFAULT_RELAXATION_LENGTH   # m of the wheel's path; > 0: Duvaut-Lions
     relaxation_fallback: float = DEFAULT_RELAXATION_FALLBACK   # m; a failed vertical move relaxed; 0: off
-    travel_relaxation_fallback: float = DEFAULT_TRAVEL_RELAXATION_FALLBACK   # m; a failed roll relaxed; 0: off
+    travel_relaxation_fallback: float = DEFAULT_TRAVEL_RELAXATION_FALLBACK   # m; a failed roll restarts relaxed
     regularising_cohesion: float = DEFAULT_REGULARISING_COHESION   # Pa in place of c = 0; 0: c stays 0
     plateau_tolerance: float = PLATEAU_RTOL   # Newton plateaus accepted below this x |F_internal|; 0: never
 

@@ -41,7 +41,7 @@ DEFAULT_RELAXATION_LENGTH = 0.0
 #: relaxation length (m) a push falls back to, over a short stretch of sinkage, when Newton fails
 #: on the unregularised soil (``[model] relaxation_fallback``); 0: fail instead
 DEFAULT_RELAXATION_FALLBACK = 1e-5
-#: relaxation length (m of travel) a roll falls back to, over a stretch of travel, when Newton fails
+#: relaxation length (m of travel) a roll starts over with, relaxed to its end, when Newton fails
 #: on the unregularised soil (``[model] travel_relaxation_fallback``); 0: fail instead
 DEFAULT_TRAVEL_RELAXATION_FALLBACK = 5e-4
 

@@ -227,9 +227,10 @@ class WheelRolling:
     regularisation of the soil while the wheel moves (press, roll, lift), with the wheel's path
     as pseudo-time: a step that moves the wheel by ``dx`` has ``r = dx / relaxation_length``
     (see :func:`~rollsim.solver.return_map.duvaut_lions`); ``travel_relaxation_fallback`` (m, 0: off):
-    the relaxation length a roll falls back to, from the first step where Newton fails after step
-    cutting on the unregularised soil to the end of the roll (the vertical moves fall back to
-    ``relaxation_fallback`` as :meth:`WheelIndentation.push`); other keywords as :class:`WheelIndentation`.
+    the relaxation length a roll falls back to when Newton fails after step cutting on the
+    unregularised soil: the roll starts over from where it began, relaxed to its end (the vertical
+    moves fall back to ``relaxation_fallback`` as :meth:`WheelIndentation.push`); other keywords as
+    :class:`WheelIndentation`.
     """
 
     def __init__(self, tagged, wheel, materials, *, gamma: float = 0.0, friction: float = 0.0,
@@ -263,6 +264,8 @@ class WheelRolling:
         self.travel_relaxation_fallback = check_relaxation_length(travel_relaxation_fallback)
         #: ``(from, to)`` travel (m) of each stretch a roll relaxed after a failure
         self.relaxed_travel: list[tuple[float, float]] = []
+        #: travel (m) at which each roll that started over relaxed had failed rate-independent
+        self.travel_failures: list[float] = []
         self._roll_relaxation = 0.0              # m: the fallback relaxation the last roll ended with
         self.moment_rtol = float(moment_rtol)
         self.steps: list[RollingStep] = []
@@ -365,14 +368,15 @@ class WheelRolling:
         return self.steps
 
     def roll(self, travel: float, s_target: float, ramp: float | None = None, dx: float | None = None,
-             on_step: Callable[[RollingStep], None] | None = None, control: StepControl | None = None
-             ) -> list[RollingStep]:
+             on_step: Callable[[RollingStep], None] | None = None, control: StepControl | None = None,
+             on_start_over: Callable[[int], None] | None = None) -> list[RollingStep]:
         """Translate the wheel by ``travel`` (m) in +x, its sinkage ramped linearly from the current
         value to ``s_target`` over the first ``ramp`` metres of travel (default: all of it), then
         held.  ``dx``: first travel step (default h/4, h the contact element size; grows to h/2
-        after easy steps, cut on divergence; relaxed over a stretch after a failure, see
-        ``travel_relaxation_fallback``).  Returns all steps; ``SolverDivergedError`` (state at the
-        last converged step) on failure."""
+        after easy steps, cut on divergence).  After a failure the roll starts over relaxed (see
+        ``travel_relaxation_fallback``): the steps it rolled are dropped, and ``on_start_over(n)``
+        is told how many.  Returns all steps; ``SolverDivergedError`` (state at the last converged
+        step) on failure."""
         if not travel > 0:
             raise ValueError(f"travel must be > 0, got {travel}")
         ramp = travel if ramp is None else float(ramp)
@@ -413,17 +417,27 @@ class WheelRolling:
         def advance(to: float, c: StepControl) -> None:
             self._run(set_load, replace(c, t_end=to), on_t, t_start=self.position - x0)
 
+        begun = self.save_state() | {"sink_rate": self._sink_rate}
+
+        def start_over(failed_at: float) -> None:
+            dropped = len(self.steps) - begun["n_roll_steps"]
+            self.load_state(begun)
+            self._sink_rate = begun["sink_rate"]
+            self.travel_failures.append(failed_at)
+            if on_start_over is not None:
+                on_start_over(dropped)
+
         relaxed_before = len(self.relaxed_travel)
         self._rolling = True
         try:
-            # relaxed to the end of the roll: on dense non-associated sand, rate-independent travel
-            # between relaxed stretches localised and heaved at 3-4x the Newton iterations; relaxed
-            # from the failure on, the sinkage follows the whole-path relaxed one as the mesh is
-            # refined (docs/limitations.md, "Travel relaxation fallback")
+            # started over and relaxed to the end of the roll: on dense non-associated sand the
+            # rate-independent travel up to the failure localised and left a heave where the rut
+            # belongs, and relaxed stretches between rate-independent ones heaved more at 3-4x the
+            # Newton iterations (docs/limitations.md, "Travel relaxation fallback")
             fallback = RelaxationFallback.unless_relaxed(self.relaxation_length, self.travel_relaxation_fallback,
                                                          math.inf, self.relaxed_travel)
             advance_with_fallback(advance, lambda: self.position - x0, [travel], control, fallback,
-                                  self._ind._relax, what="travel")
+                                  self._ind._relax, what="travel", start_over=start_over)
         finally:
             self._rolling = False
             relaxed = len(self.relaxed_travel) > relaxed_before
@@ -470,7 +484,8 @@ class WheelRolling:
                      steady_rtol: float = 0.02, steady_qh_rtol: float = 0.05, run_out: float = 1.0,
                      min_window_elements: float = 3.0, min_travel: float | None = None,
                      on_step: Callable[[RollingStep], None] | None = None,
-                     control: StepControl | None = None) -> "SteadyState":
+                     control: StepControl | None = None,
+                     on_start_over: Callable[[int], None] | None = None) -> "SteadyState":
         """Roll at constant whole-wheel ``Q_V = load`` (N), towed, up to ``travel`` (m) in +x.
 
         Each travel step solves the sinkage and the rotation increment for ``Q_V = load`` (to
@@ -483,7 +498,8 @@ class WheelRolling:
         (m; default :data:`STEADY_MIN_TRAVEL` d) past ``x_soft``, so the overshoot after the stiff
         zone is not taken for steady rolling.  The wheel then rolls ``run_out`` windows further
         (the rut behind it is then unloaded) and stops.  Default ``control``: steps of a quarter
-        element (after a cut, they grow back by 1.5x per step).
+        element (after a cut, they grow back by 1.5x per step).  ``on_start_over``: as :meth:`roll`
+        (a steady state found before the roll started over is forgotten).
         Returns the :class:`SteadyState` (``reached = False`` when ``travel`` ran out first)."""
         if not load > 0 or not travel > 0:
             raise ValueError(f"load and travel must be > 0, got {load}, {travel}")
@@ -514,12 +530,18 @@ class WheelRolling:
             if st.travel >= stop_at[0] - 1e-12:
                 raise _StopRolling
 
+        def started_over(dropped: int):
+            found.clear()
+            stop_at[0] = math.inf
+            if on_start_over is not None:
+                on_start_over(dropped)
+
         if control is None:                 # steps of h/4 (>= 4 per detection window), back to h/4 after cuts
             h = self.contact.h
             control = StepControl(t_end=travel, dt=0.25 * h, dt_min=1e-3 * h, dt_max=0.25 * h, max_cuts=8,
                                   easy_iterations=10**6)
         try:
-            self.roll(travel, self.sinkage, on_step=monitor, control=control)
+            self.roll(travel, self.sinkage, on_step=monitor, control=control, on_start_over=started_over)
         except _StopRolling:
             pass
         finally:

@@ -307,13 +307,16 @@ class RelaxationFallback:
 
 def advance_with_fallback(advance: Callable[[float, StepControl], None], position: Callable[[], float],
                           targets, control: StepControl, fallback: RelaxationFallback | None,
-                          relax: Callable[[float], None], what: str = "s") -> None:
+                          relax: Callable[[float], None], what: str = "s",
+                          start_over: Callable[[float], None] | None = None) -> None:
     """Move a path coordinate (sinkage or travel, m) from ``position()`` through each of ``targets``
     (ascending) by ``advance(to, control)`` (one :func:`solve_load_path` from the current state to
     ``to``).  When ``advance`` fails as ``fallback`` allows, ``relax(fallback.length)`` switches the
     soil's relaxation on for the next ``fallback.stretch`` and ``relax(0)`` off again; a failure
-    inside that stretch is raised.  ``control.max_wall_time`` holds for the whole move; ``what``
-    names the coordinate in the log."""
+    inside that stretch is raised.  With ``start_over``, the first such failure calls
+    ``start_over(where)`` (``where``: the coordinate it failed at), which restores the state the
+    move started from, and the relaxed stretch begins there.  ``control.max_wall_time`` holds for
+    the whole move; ``what`` names the coordinate in the log."""
     deadline = time.perf_counter() + control.max_wall_time
 
     def remaining() -> StepControl:
@@ -326,10 +329,15 @@ def advance_with_fallback(advance: Callable[[float, StepControl], None], positio
             except SolverDivergedError as err:
                 if fallback is None or not fallback.applies(err):
                     raise
+                failed = position()
+                if start_over is not None:
+                    start_over(failed)
+                    start_over = None
                 start = position()
                 end = min(target, start + fallback.stretch)
-                log.warning("Newton failed at %s = %.5g m: the soil is relaxed (Duvaut-Lions, %.3g mm) up to "
-                            "%s = %.5g m%s", what, start, 1e3 * fallback.length, what, end,
+                log.warning("Newton failed at %s = %.5g m: the soil is relaxed (Duvaut-Lions, %.3g mm) from "
+                            "%s = %.5g m%s up to %s = %.5g m%s", what, failed, 1e3 * fallback.length, what, start,
+                            " (the move starts over)" if start < failed else "", what, end,
                             ", the end of the move" if end == target else ", then the rate-independent path goes on")
                 relax(fallback.length)
                 try:

@@ -109,23 +109,25 @@ def test_rolling_convergence_runs_the_scene_fallbacks_apart(benchmarks, tmp_path
     assert passed[0] == {"relaxation_length": 0.0}
     assert passed[1]["travel_relaxation_fallback"] > 0 and passed[1]["relaxation_fallback"] > 0
     saved = json.loads(out.read_text())["results"]
-    assert [convergence.formulation(r) for r in saved] == ["pointwise", "pointwise, fallback relaxed from the first failure on"]
+    assert [convergence.formulation(r) for r in saved] == ["pointwise", "pointwise, fallback started over relaxed"]
     assert convergence.formulation({**saved[1], "fallbacks": True}) == "pointwise, fallbacks over 0.1 d stretches"
 
 
 @pytest.mark.serial
 def test_rolling_convergence_table_names_failed_heaving_and_relaxed_levels(benchmarks, tmp_path, capsys):
-    """A failed level is not scored; a heave and the relaxed stretches are named under the table;
+    """A failed level is not scored; a heave, the relaxed stretches and a roll that started over
+    are named under the table;
     the figure draws the levels that kept their sinkage along the travel."""
     convergence, _ = benchmarks
     failed = _level(6.0, 0.010, status="failed: Newton diverged", travel_sinkage=[[0.0, 0.01], [0.5, 0.011]])
     heaving = _level(8.0, 0.005, rut_depth=-0.012, relaxed_travel=[[0.4, 0.55], [0.9, 1.05]],
-                     travel_sinkage=[[0.0, 0.01], [0.5, 0.006], [1.0, 0.004]])
+                     travel_failures=[0.4], travel_sinkage=[[0.0, 0.01], [0.5, 0.006], [1.0, 0.004]])
     text = convergence.table([failed, heaving])
     rows = [line for line in text.splitlines() if line.startswith("| case5")]
     assert len(rows) == 1 and "| 8 |" in rows[0]
     assert "6 elements / d: failed after 0.50 m of travel, not scored" in text
     assert "8 elements / d: 2 stretch(es) relaxed, 0.30 m of travel" in text
+    assert "8 elements / d: the rate-independent roll failed after 0.40 m and started over relaxed" in text
     assert "8 elements / d: the rut is a heave of 12.0 mm" in text
     saved = tmp_path / "levels.json"
     saved.write_text(json.dumps({"results": [failed, heaving]}))

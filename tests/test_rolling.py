@@ -215,9 +215,10 @@ SAND_13 = {"model": "drucker-prager", "E": 40e6, "nu": 0.35, "phi_dp": 61.6, "c_
 
 def test_travel_fallback_lets_non_associated_sand_roll(comm, tmp_mpi_path):
     """Dense sand with non-associated flow (layered case 13: phi_dp = 61.6 deg, psi = 0), plain
-    scene: Newton fails during the roll on the unregularised soil; the travel fallback relaxes the
-    rest of the roll from there and the wheel rolls to the end, the summary lists the stretch and its
-    estimated effect.  Without the fallback the same roll stops with the failure (serially: on 2
+    scene: Newton fails during the roll on the unregularised soil; the roll starts over relaxed by
+    the travel fallback and the wheel rolls to the end, history.csv holds the relaxed roll only,
+    the summary lists the stretch (the whole roll), where the first roll failed, and the estimated
+    effect.  Without the fallback the same roll stops with the failure (serially: on 2
     ranks the partition changes the path, which may then need no relaxation); halving the fallback
     moves Q_V by less than 1 % (compared when both runs relaxed: an unrelaxed route reads about
     3 % higher); the lift-off after a relaxed roll is relaxed too."""
@@ -234,6 +235,14 @@ def test_travel_fallback_lets_non_associated_sand_roll(comm, tmp_mpi_path):
     assert len(entries) == bool(model["relaxed_travel_m"]) and (model["relaxed_travel_m"] or comm.size > 1), model
     for entry in entries:
         assert entry["key"] == "model.travel_relaxation_fallback" and entry["effect"]["measured_range"]
+    if model["relaxed_travel_m"]:
+        ((start, end),), (failed,) = model["relaxed_travel_m"], model["rate_independent_travel_failed_at_m"]
+        assert start == 0.0 and end == pytest.approx(0.1 * D) and 0 < failed < end, model
+        with open(tmp_mpi_path / "history.csv") as f:
+            travel = [float(row["travel_m"]) for row in csv.DictReader(f)]
+        assert np.all(np.diff(travel) >= 0) and travel[-1] == pytest.approx(0.1 * D), travel
+    else:
+        assert "rate_independent_travel_failed_at_m" not in model, model
     sand = DruckerPrager(E=40e6, nu=0.35, phi_dp=math.radians(61.6), c_dp=18.5e3, dilation=0.0)
     if comm.size == 1:
         with pytest.raises(SolverDivergedError, match="Newton diverged"):

@@ -452,7 +452,8 @@ def test_newton_plateaus_let_a_steep_nonassociated_sand_indent(comm, tmp_mpi_pat
 def test_fallback_relaxes_the_stretch_after_a_failure_then_goes_on():
     """``advance_with_fallback`` on a path that fails at 0.3 and 0.55 unless relaxed: each failure
     is retried relaxed over the next stretch (and no further), the relaxation is switched off
-    after it, both stretches are listed; a guard, or a failure inside the stretch, is raised."""
+    after it, both stretches are listed; a guard, or a failure inside the stretch, is raised; with
+    ``start_over`` the move restarts relaxed from its start."""
     from rollsim.solver.stepping import RelaxationFallback, SolverDivergedError, StepControl, advance_with_fallback
     hard = [0.3, 0.55]
     state = {"x": 0.0, "relax": 0.0}
@@ -499,6 +500,17 @@ def test_fallback_relaxes_the_stretch_after_a_failure_then_goes_on():
     fb = RelaxationFallback(length=1e-3, stretch=math.inf)
     advance_with_fallback(advance, lambda: state["x"], [0.5, 1.0], StepControl(), fb, relax)
     assert state["x"] == 1.0 and switched == [1e-3, 0.0, 1e-3, 0.0] and fb.spans == [(0.29, 0.5), (0.54, 1.0)]
+    state.update(x=0.0)                                       # started over: relaxed from the move's start
+    switched.clear()
+    failures = []
+
+    def start_over(where):
+        failures.append(where)
+        state["x"] = 0.0
+
+    fb = RelaxationFallback(length=1e-3, stretch=math.inf)
+    advance_with_fallback(advance, lambda: state["x"], [1.0], StepControl(), fb, relax, start_over=start_over)
+    assert state["x"] == 1.0 and switched == [1e-3, 0.0] and fb.spans == [(0.0, 1.0)] and failures == [0.29]
     spans = []
     assert RelaxationFallback.unless_relaxed(2e-3, 1e-3, 0.1, spans) is None       # relaxed along the path
     assert RelaxationFallback.unless_relaxed(0.0, 0.0, 0.1, spans) is None         # fallback off

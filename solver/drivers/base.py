@@ -203,14 +203,23 @@ class RollingRun(ProtocolRun):
                                  **self.solver_options)
         self.attach(tagged, self.roll)
         self.bar = TravelProgress(scene.loading.travel, self.d, enabled=self.progress and self.root)
+        self.frames = 0     # field frames written: their time counts on when a roll starts over
 
     def travel_relaxation(self) -> tuple[float, list[tuple[float, float]]]:
         return self.roll.travel_relaxation_fallback, self.roll.relaxed_travel
 
     def on_step(self, st) -> None:
-        """A converged ``RollingStep``: history row, fields (time = step number), progress."""
-        self.record(st, st.travel, float(len(self.rows) + 1))
+        """A converged ``RollingStep``: history row, fields (time = frame number), progress."""
+        self.frames += 1
+        self.record(st, st.travel, float(self.frames))
         self.bar.update(st)
+
+    def on_start_over(self, dropped: int) -> None:
+        """A roll that starts over relaxed: its ``dropped`` steps leave history.csv (the field
+        frames written for them stay, earlier in time)."""
+        if dropped:
+            del self.rows[-dropped:]
+        write_history(self.out, self.rows, self.comm)
 
     def state(self) -> dict:
         """Diagnostics of the last converged state."""
@@ -223,6 +232,8 @@ class RollingRun(ProtocolRun):
         summary = super().summary(status, reason, travel_m=last.get("travel_m", 0.0),
                                   moment_Nm=last.get("moment_Nm", 0.0), rotation_rad=self.roll.rotation, **results)
         summary["model"].update(x_start_m=self.roll.x_start, moment_rtol=self.roll.moment_rtol)
+        if self.roll.travel_failures:
+            summary["model"]["rate_independent_travel_failed_at_m"] = list(self.roll.travel_failures)
         return summary
 
     def plot_travel(self, summary: dict) -> None:

@@ -104,7 +104,8 @@ def run_constant_load(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, 
             return f"pressing the wheel on the stiff start zone: {res.status}: {res.reason}"
         steady = outcome["steady"] = roll.roll_at_load(
             load, travel, x_soft=x_soft, on_step=run.on_step, steady_rtol=steady_rtol,
-            steady_qh_rtol=steady_qh_rtol, min_window_elements=min_window_elements, min_travel=min_travel)
+            steady_qh_rtol=steady_qh_rtol, min_window_elements=min_window_elements, min_travel=min_travel,
+            on_start_over=run.on_start_over)
         if not steady.reached:
             log.warning("no steady state within the travel of %g m: the values are those of the last "
                         "step (a longer travel or a coarser steady tolerance may help)", travel)

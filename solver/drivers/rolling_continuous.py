@@ -52,7 +52,7 @@ def run_continuous(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, pet
         if advice and run.root:
             log.warning(advice)
         roll.press(s0, on_step=run.on_step)
-        roll.roll(travel, s_max, ramp=ramp, on_step=run.on_step)
+        roll.roll(travel, s_max, ramp=ramp, on_step=run.on_step, on_start_over=run.on_start_over)
 
     status, reason, diagnostics = run.execute(rolling, run.state)
     run.close_fields()
