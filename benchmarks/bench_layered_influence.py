@@ -16,8 +16,9 @@ more or less than ``--tolerance`` against the homogeneous case, compared at equa
 mean over the last ``--compare`` d of the shortest run).  The model's influence depth
 (``rollsim influence``: Meyerhof & Hanna, rolling footing B, L of the top layer at this load)
 is printed for the same pair of layers, c and phi from the compression match.
-``--relaxation-length`` (mm): the Duvaut-Lions regularisation of the soil (``[model]
-relaxation_length``); the non-associated sand of cases 13-15 needs it.
+``--relaxation-length`` (mm): the Duvaut-Lions regularisation of the soil along the whole path
+(``[model] relaxation_length``); without it the dense sand of cases 13-16 rolls by the travel
+fallback of a plain scene (a failed roll starts over relaxed).
 """
 from __future__ import annotations
 
