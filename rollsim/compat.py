@@ -137,6 +137,13 @@ def cell_dofs(dofmap) -> np.ndarray:
     return adjacency.array.reshape(adjacency.num_nodes, -1)
 
 
+def entity_links(mesh, dim: int, other_dim: int, entity: int) -> np.ndarray:
+    """The entities of dimension ``other_dim`` connected to one entity of dimension ``dim``, in
+    the topology's local order (an adjacency list's ``links`` in 0.5)."""
+    mesh.topology.create_connectivity(dim, other_dim)
+    return mesh.topology.connectivity(dim, other_dim).links(entity)
+
+
 def incident_entities(mesh, entities: np.ndarray, dim: int, other_dim: int) -> np.ndarray:
     """Entities of dimension ``other_dim`` incident to ``entities`` of dimension ``dim`` (takes
     the mesh in 0.5, the topology later)."""

@@ -17,10 +17,11 @@ Pattern (generalises to 3D, contact and load control):
   (GAMG, rigid-body near-null space) above (``linear_solver``); any PETSc option can be passed
   (``petsc_options`` dict, applied under ``options_prefix``).
 
-Extension points (designed, not yet used): :meth:`PlasticityProblem.add_residual_term` adds a
-UFL residual term and its Gateaux derivative (rigid-wheel penalty/Nitsche contact is such a
-term, with the wheel position in a ``fem.Constant``, see ``solver/contact.py``); load control
-(force given) is done outside, by searching the wheel position (``solver/indentation.py``).
+Extension points: :meth:`PlasticityProblem.add_residual_term` adds a UFL residual term and its
+Gateaux derivative (rigid-wheel penalty contact is such a term, with the wheel pose in
+``fem.Constant`` objects, see ``solver/contact.py``); :meth:`PlasticityProblem.add_assembled_term` adds
+forces and tangent entries by global index after the forms are assembled, for couplings outside
+the forms' sparsity (contact of two bodies, ``solver/contact_pair.py``).
 """
 from __future__ import annotations
 
@@ -351,6 +352,7 @@ class PlasticityProblem:
             soil += ufl.inner(self._sigma0, mandel_strain(v, self.gdim, F_inv) - eps(v)) * self._J_n * self.dx
         self._F_terms = [soil]       # the soil's internal minus external force (internal_force)
         self._J_terms = [ufl.inner(ufl.dot(Ct, eps(du)), eps(v)) * self._J_n * self.dx]
+        self._assembled_terms: list = []
         self._compiled = False
         self._internal_force_forms: dict = {}
 
@@ -439,6 +441,16 @@ class PlasticityProblem:
             raise RuntimeError("add_residual_term must be called before the first solve")
         self._F_terms.append(F_term)
         self._J_terms.append(J_term if J_term is not None else ufl.derivative(F_term, self.u, self._du))
+
+    def add_assembled_term(self, term) -> None:
+        """Add a term assembled by index: ``term.add_residual(b)`` adds its forces to the
+        assembled residual (owned entries complete, before the Dirichlet rows are set) and
+        ``term.add_jacobian(A)`` its tangent to the assembled Jacobian (before its final
+        assembly), both by global index and for the current iterate :attr:`u`; new nonzeros are
+        allowed in the Jacobian.  Call before the first solve."""
+        if self._compiled:
+            raise RuntimeError("add_assembled_term must be called before the first solve")
+        self._assembled_terms.append(term)
 
     @property
     def test_function(self):
@@ -574,6 +586,8 @@ class PlasticityProblem:
         self._J_form = fem.form(sum(self._J_terms[1:], self._J_terms[0]))
         self._b = compat.create_vector(self._F_form)
         self._A = fpetsc.create_matrix(self._J_form)
+        if self._assembled_terms:
+            self._A.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, False)
         self._x = compat.petsc_vector(self.u).copy()
         self._x_last = compat.petsc_vector(self.u).copy()
         snes = PETSc.SNES().create(self.comm)
@@ -618,6 +632,8 @@ class PlasticityProblem:
         self._force_scale = b.norm()      # includes the reactions: units-consistent floor
         with b.localForm() as b_local:       # ghosts were added to their owners: clear them
             b_local.array[b.getLocalSize():] = 0.0
+        for term in self._assembled_terms:
+            term.add_residual(b)
         if self._dirichlet_gap(x):
             compat.apply_lifting(b, [self._J_form], self.bcs, x, scale=-1.0)
             b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
@@ -645,6 +661,10 @@ class PlasticityProblem:
             x.copy(self._x_last)
         A.zeroEntries()
         fpetsc.assemble_matrix(A, self._J_form, self.bcs)
+        if self._assembled_terms:
+            A.assemble(PETSc.Mat.AssemblyType.FLUSH)
+            for term in self._assembled_terms:
+                term.add_jacobian(A)
         A.assemble()
         self.timings["jacobian"] += time.perf_counter() - t0
 

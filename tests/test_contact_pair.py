@@ -1,0 +1,166 @@
+"""Contact of two deformable bodies (solver/contact_pair.py): consistent tangent, Hertz with the
+combined modulus, mesh convergence of the pressure.
+
+Plane strain: an elastic cylinder (R = 0.5 m, E = 20 MPa) pressed on an elastic block
+(E = 10 MPa), both nu = 0.3, quarter model.  The sweep over penalty factors and element sizes,
+with either surface as the slave: benchmarks/bench_contact_pair.py.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from conftest import assert_all
+from dolfinx import fem
+from petsc4py import PETSc
+
+from rollsim import compat
+from rollsim.geometry import MeshOptions
+from rollsim.geometry.pair import PAIR_CELL_TAGS, CylinderOnBlock, build_cylinder_on_block
+from rollsim.solver import PlasticityProblem, StepControl, VonMises, solve_load_path
+from rollsim.solver.contact_pair import FacetContact
+
+E_CYLINDER, E_BLOCK, NU = 20e6, 10e6, 0.3
+PUSH = 0.010           # m: the cylinder's cut moves down by this after closing the gap
+
+
+def _pair(comm, fine: float, penalty: float, slave: str = "top", friction: float = 0.0, symmetric: bool = True):
+    """The cylinder-on-block problem, its contact and the Dirichlet values of the cylinder's cut:
+    (push down, move along x), m."""
+    pair = CylinderOnBlock(symmetric=symmetric)
+    tm = build_cylinder_on_block(comm, pair, MeshOptions(fine, 20 * fine, 0.3, order=2))
+    elastic = {PAIR_CELL_TAGS["block"]: VonMises(E=E_BLOCK, nu=NU, yield_stress=1e12),
+               PAIR_CELL_TAGS["cylinder"]: VonMises(E=E_CYLINDER, nu=NU, yield_stress=1e12)}
+    pb = PlasticityProblem(tm.mesh, elastic, cell_tags=tm.cell_tags)
+    V, names = pb.V, tm.facet_names
+    push, move = fem.Constant(tm.mesh, 0.0), fem.Constant(tm.mesh, 0.0)
+
+    def held(name, axis, value=0.0):
+        Vi = V.sub(axis)
+        return fem.dirichletbc(value, fem.locate_dofs_topological(Vi, 1, tm.facet_tags.find(names[name])), Vi)
+
+    pb.bcs = [held("bottom", 0), held("bottom", 1), held("side", 0), held("load", 1, push)]
+    pb.bcs += [held("symmetry_x", 0)] if symmetric else [held("load", 0, move)]
+    master = "rim" if slave == "top" else "top"
+    ct = FacetContact(pb, tm.facet_tags, (names[slave],), (names[master],), penalty=penalty, friction=friction)
+    return pair, pb, ct, (push, move)
+
+
+def hertz_pair_run(comm, fine: float, penalty: float, slave: str = "top") -> dict:
+    """Press the cylinder by PUSH; the contact half-width a (from the pressure's second moment,
+    a^2 = 4 int x^2 p / int p for Hertz), the peak pressure p0 and the pressure's L2 distance
+    from Hertz's ellipse, against Hertz with 1/E* = (1 - nu1^2)/E1 + (1 - nu2^2)/E2."""
+    pair, pb, ct, (push, _) = _pair(comm, fine, penalty, slave)
+
+    def lower(t):
+        push.value = -(pair.gap + PUSH) * t
+
+    records = solve_load_path(pb, lower, StepControl(dt=0.25, dt_max=0.25))
+    F = ct.forces()
+    P = 2 * abs(F.force[1])                               # N/m, both halves
+    E_star = 1 / ((1 - NU ** 2) / E_CYLINDER + (1 - NU ** 2) / E_BLOCK)
+    a_h = math.sqrt(4 * pair.radius * P / (math.pi * E_star))
+    p0_h = 2 * P / (math.pi * a_h)
+    X, w, p = ct.pressures()
+    x = X[:, 0]
+    hertz = p0_h * np.sqrt(np.maximum(0.0, 1 - (x / a_h) ** 2))
+    l2 = math.sqrt(comm.allreduce(float(w @ (p - hertz) ** 2)) / comm.allreduce(float(w @ hertz ** 2)))
+    return {"P": P, "a": 2 * math.sqrt(F.M2 / F.M0), "a_hertz": a_h, "p0": F.max_pressure, "p0_hertz": p0_h,
+            "l2": l2, "resultant": 2 * F.M0, "penetration": F.max_penetration, "h": ct.h,
+            "newton_iterations": sum(r.iterations for r in records), "steps": len(records), "dofs": pb.n_dofs}
+
+
+@pytest.mark.parametrize("field, value", [("radius", 0.0), ("gap", -1e-3), ("zone", 0.6)])
+def test_cylinder_on_block_names_a_bad_dimension(field, value):
+    with pytest.raises(ValueError, match=field):
+        CylinderOnBlock(**{field: value})
+
+
+@pytest.mark.parametrize("friction", [0.0, 0.3], ids=["frictionless", "coulomb"])
+def test_pair_tangent_is_the_derivative_of_the_forces(comm, friction):
+    """The assembled contact tangent (complex step, per pair) times a direction equals the central
+    difference of the assembled contact forces along it, to 1e-6 (in contact, with the normal
+    rotating: the block's surface is dented; with friction after a sideways move that leaves
+    points sticking and slipping)."""
+    pair, pb, ct, (push, move) = _pair(comm, 0.02, penalty=10.0, slave="rim", friction=friction, symmetric=False)
+    solve_load_path(pb, lambda t: setattr(push, "value", -(pair.gap + PUSH) * t), StepControl(dt=0.25, dt_max=0.25))
+    solve_load_path(pb, lambda t: setattr(move, "value", 0.4e-3 * t), StepControl(dt=0.5, dt_max=0.5))
+    move.value = 0.5e-3                 # not committed: slipping points are off the slip limit
+    assert pb.solve_increment().converged
+    u = compat.petsc_vector(pb.u)
+    rng = np.random.default_rng(7 + comm.rank)
+    direction = u.duplicate()
+    direction.array[:] = rng.uniform(-1, 1, direction.getLocalSize())
+    for bc in pb.bcs:                  # the pair leaves Dirichlet rows and columns out by design
+        held = bc.dof_indices()[0]
+        direction.array[held[held < direction.getLocalSize()]] = 0.0
+    direction.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+    base = u.copy()
+
+    def forces(eps):
+        base.copy(u)
+        u.axpy(eps, direction)
+        u.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+        b = u.duplicate()
+        b.set(0.0)
+        ct.add_residual(b)
+        return b
+
+    A = pb._A.duplicate()
+    A.zeroEntries()
+    base.copy(u)
+    u.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+    ct.add_jacobian(A)
+    A.assemble()
+    Jd = u.duplicate()
+    A.mult(direction, Jd)
+    eps = 1e-9
+    fd = forces(eps)
+    fd.axpy(-1.0, forces(-eps))
+    fd.scale(1 / (2 * eps))
+    base.copy(u)
+    u.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+    if friction:
+        _, _, _, t_T = ct._evaluate(*ct._pairs())
+        t = comm.allgather(np.linalg.norm(t_T, axis=1) / (friction * ct.pressures()[2]))
+        assert_all(comm, True)
+        t = np.concatenate(t)
+        assert (t > 1 - 1e-9).any() and (t < 0.99).any(), "expected both slipping and sticking points"
+    scale = Jd.norm()
+    assert scale > 0
+    fd.axpy(-1.0, Jd)
+    assert fd.norm() <= 1e-6 * scale, (fd.norm(), scale)
+
+
+def test_coulomb_sliding_drags_mu_times_the_load(comm):
+    """Pressed, then moved sideways: by 1 mm the block's surface follows the cylinder in most of the
+    patch (Q_H < mu Q_V); by 10 mm every point slips, so the cylinder is dragged by Q_H = mu Q_V
+    (within 2 %: the contact tangents are tilted by the dent)."""
+    mu = 0.3
+    pair, pb, ct, (push, move) = _pair(comm, 0.01, penalty=10.0, slave="rim", friction=mu, symmetric=False)
+    solve_load_path(pb, lambda t: setattr(push, "value", -(pair.gap + PUSH) * t), StepControl(dt=0.5, dt_max=0.5))
+    readings = []
+    for start, end in ((0.0, 1e-3), (1e-3, 10e-3)):
+        solve_load_path(pb, lambda t, a=start, b=end: setattr(move, "value", a + (b - a) * t),
+                        StepControl(dt=0.25, dt_max=0.25))
+        F = ct.forces()
+        readings.append(abs(F.force[0]) / (mu * abs(F.force[1])))
+    assert readings[0] < 0.95, readings
+    assert abs(readings[1] - 1) < 0.02, readings
+
+
+@pytest.mark.slow
+def test_two_body_hertz(comm):
+    """Both bodies deform: the half-width a and the peak pressure p0 match Hertz with the combined
+    modulus within 3 % (Hertz for a rigid cylinder, or a rigid block, gives an a 18 % / 42 %
+    smaller); the pressure integrates to the contact force; its L2 distance from Hertz's ellipse
+    falls with the element size (h = 10 mm -> 5 mm; a ~ 0.054 m)."""
+    coarse = hertz_pair_run(comm, 0.01, penalty=10.0)
+    fine = hertz_pair_run(comm, 0.005, penalty=10.0)
+    for r in (coarse, fine):
+        assert abs(r["a"] / r["a_hertz"] - 1) < 0.03, r
+        assert abs(r["p0"] / r["p0_hertz"] - 1) < 0.03, r
+        assert abs(r["resultant"] / r["P"] - 1) < 2e-3, r
+    assert fine["l2"] < 0.06 and fine["l2"] < 0.75 * coarse["l2"], (coarse["l2"], fine["l2"])
+    assert_all(comm, True)
