@@ -145,6 +145,18 @@ def gmsh_model(comm: MPI.Comm, name: str) -> Iterator[gmsh.model | None]:
                 gmsh.finalize()
 
 
+def box_size_field(model: gmsh.model, zone_box: list[float], opts: MeshOptions) -> None:
+    """Fine inside ``zone_box`` (xmin, xmax, ymin, ymax, zmin, zmax), linear growth to coarse."""
+    field = model.mesh.field.add("Box")
+    for key, value in zip(("XMin", "XMax", "YMin", "YMax", "ZMin", "ZMax"), zone_box):
+        model.mesh.field.setNumber(field, key, value)
+    model.mesh.field.setNumber(field, "VIn", opts.fine_size)
+    model.mesh.field.setNumber(field, "VOut", opts.coarse_size)
+    model.mesh.field.setNumber(field, "Thickness", opts.transition)
+    model.mesh.field.setAsBackgroundMesh(field)
+    size_options_off()
+
+
 def size_options_off() -> None:
     """Let only the background field (or transfinite counts) set element sizes."""
     gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)

@@ -13,7 +13,8 @@ from dataclasses import dataclass
 
 from mpi4py import MPI
 
-from .mesh import MeshOptions, TaggedMesh, add_physical_groups, distribute, gmsh_model, set_order, size_options_off
+from .mesh import (MeshOptions, TaggedMesh, add_physical_groups, box_size_field, distribute, gmsh_model,
+                   set_order)
 
 __all__ = ["CylinderOnBlock", "build_cylinder_on_block", "PAIR_CELL_TAGS", "PAIR_FACET_TAGS"]
 
@@ -67,16 +68,8 @@ def build_cylinder_on_block(comm: MPI.Comm, pair: CylinderOnBlock, opts: MeshOpt
             cell_names = add_physical_groups(model, 2, {"block": [block], "cylinder": [cylinder[1]]},
                                              PAIR_CELL_TAGS)
             facet_names = add_physical_groups(model, 1, facets, PAIR_FACET_TAGS)
-            field = model.mesh.field.add("Box")
             zone = pair.zone
-            for key, value in zip(("XMin", "XMax", "YMin", "YMax"),
-                                  (0.0 if pair.symmetric else -zone, zone, -zone, gap + zone)):
-                model.mesh.field.setNumber(field, key, value)
-            model.mesh.field.setNumber(field, "VIn", opts.fine_size)
-            model.mesh.field.setNumber(field, "VOut", opts.coarse_size)
-            model.mesh.field.setNumber(field, "Thickness", opts.transition)
-            model.mesh.field.setAsBackgroundMesh(field)
-            size_options_off()
+            box_size_field(model, [0.0 if pair.symmetric else -zone, zone, -zone, gap + zone, -1.0, 1.0], opts)
             model.mesh.generate(2)
             set_order(opts.order)
         return distribute(model, comm, 2, 2, cell_names, facet_names)

@@ -13,8 +13,8 @@ import gmsh
 import numpy as np
 from mpi4py import MPI
 
-from rollsim.geometry.mesh import (MeshOptions, TaggedMesh, add_physical_groups, distribute, gmsh_model,
-                                   log, set_order, size_options_off)
+from rollsim.geometry.mesh import (MeshOptions, TaggedMesh, add_physical_groups, box_size_field, distribute,
+                                   gmsh_model, log, set_order)
 from rollsim.mpi import root_block
 
 CUTS = ("full", "half", "quarter")
@@ -215,18 +215,6 @@ def _set_transfinite(model: gmsh.model, axes: list[np.ndarray], zones: list[tupl
             model.mesh.setTransfiniteVolume(volume)
 
 
-def _size_field(model: gmsh.model, zone_box: list[float], opts: MeshOptions) -> None:
-    """Fine inside ``zone_box`` (xmin, xmax, ymin, ymax, zmin, zmax), linear growth to coarse."""
-    field = model.mesh.field.add("Box")
-    for key, value in zip(("XMin", "XMax", "YMin", "YMax", "ZMin", "ZMax"), zone_box):
-        model.mesh.field.setNumber(field, key, value)
-    model.mesh.field.setNumber(field, "VIn", opts.fine_size)
-    model.mesh.field.setNumber(field, "VOut", opts.coarse_size)
-    model.mesh.field.setNumber(field, "Thickness", opts.transition)
-    model.mesh.field.setAsBackgroundMesh(field)
-    size_options_off()
-
-
 def _build_grid(model: gmsh.model, axes: list[np.ndarray]) -> None:
     """Conforming grid of boxes (3D) or rectangles (2D) between the cut positions of ``axes``."""
     occ = model.occ
@@ -293,7 +281,7 @@ def build_soil_block(comm: MPI.Comm, block: SoilBlock, opts: MeshOptions, msh_pa
                 if opts.hexahedra:
                     _set_transfinite(model, axes, zones, opts)
                 else:
-                    _size_field(model, [ref.x_min, ref.x_max, -ref.half_width, ref.half_width,
+                    box_size_field(model, [ref.x_min, ref.x_max, -ref.half_width, ref.half_width,
                                         -ref.depth, opts.transition], opts)
                 cells: dict[str, list[int]] = {f"layer_{k}": [] for k in range(1, len(bottoms) + 1)}
                 cells["stiff_zone"] = []
@@ -339,7 +327,7 @@ def build_plane_strain_block(comm: MPI.Comm, block: PlaneStrainBlock, opts: Mesh
                 if opts.hexahedra:
                     _set_transfinite(model, axes, zones, opts)
                 else:
-                    _size_field(model, [-w, w, -dr, opts.transition, -1.0, 1.0], opts)
+                    box_size_field(model, [-w, w, -dr, opts.transition, -1.0, 1.0], opts)
                 cells = {f"layer_{k}": [] for k in range(1, len(bottoms) + 1)}
                 for _, surface in model.getEntities(2):
                     cells[f"layer_{_layer_of(model.occ.getCenterOfMass(2, surface)[1], bottoms)}"].append(surface)
