@@ -3,16 +3,19 @@
 Formulation (integration point to facet, current configuration, consistent linearisation)
 -----------------------------------------------------------------------------------------
 Both surfaces are their facets, each interpolated through its nodes as in the elements
-(``x(xi) = sum N_i(xi) x_i``, ``xi`` in [0, 1]: a straight segment or a parabola).  The
-*slave* surface is integrated by Gauss points; the point of a slave facet now at ``x_s`` is
-projected onto the nearest *master* facet it lies over (closest point, by Newton on
-``(x_s - x(xi)) . x'(xi) = 0``)::
+(``x(xi) = sum N_i(xi) x_i``, ``xi`` in [0, 1]: a straight segment or a parabola).  The master's
+outward normal is interpolated from nodal normals, ``n(xi) = unit(sum N_i(xi) n_i)``, ``n_i`` the
+facet's own normal at its midpoint node and, at a vertex, the average of the two facets' normals
+there, so it turns continuously from facet to facet (with the facets' own normals a point at a
+vertex of a curved master switches between two of them and Newton stalls).  The *slave*
+surface is integrated by Gauss points; the point of a slave facet now at ``x_s`` is projected
+along that normal onto a master facet it lies over (Newton on ``(x_s - x(xi)) x n(xi) = 0``)::
 
-    g = (x_s - x_m(xi)) . n(xi),     n outward from the master,     p = kappa <-g>_+
+    g = (x_s - x_m(xi)) . n(xi),     p = kappa <-g>_+
 
-and, where it penetrates, the energy ``kappa w g^2 / 2`` (``w``: the point's weight times the
-facet's reference length element) adds the nodal forces
-``kappa w g (N^s_1 n, ..., N^s_k n, -N^m_1(xi) n, ..., -N^m_k(xi) n)`` to the rows of the slave and
+and, where it penetrates, adds the nodal forces
+``kappa w g (N^s_1 n, ..., N^s_k n, -N^m_1(xi) n, ..., -N^m_k(xi) n)`` (``w``: the point's weight
+times the facet's reference length element) to the rows of the slave and
 master facets' nodes.  Coulomb friction acts as on the rigid wheel: the trial traction
 ``t_tr = P_T t_n - k_T P_T (x_s - x_m(xi_n))`` (``t_n`` the point's last converged friction
 traction, ``x_m(xi_n)`` the master's material point it touched then, where it is now;
@@ -20,13 +23,11 @@ traction, ``x_m(xi_n)`` the master's material point it touched then, where it is
 adding ``-w t_T`` to the slave's and ``w t_T`` to the master's nodal forces (shape-weighted).
 A point that comes into contact carries no friction until the step that found it has
 converged (it has no material point to slip against before).  This is the rigid wheel's law
-(:mod:`rollsim.solver.contact`) with the wheel replaced by the master body; a penalty at the slave
-nodes instead of its integration points would alternate by +-20 % between the vertices and the
-midpoints of quadratic facets.  The tangent of each pair, including the rotation of ``n``, the
-slide of ``xi`` and the stick/slip switch, is the exact derivative of those forces
-(non-symmetric with friction), taken by the complex step: the forces are analytic in the
-coordinates once the facet and the active set are chosen, and the projection is iterated in
-complex arithmetic.
+(:mod:`rollsim.solver.contact`) with the wheel replaced by the master body.  The tangent of each
+pair, including the rotation of ``n``, the slide of ``xi`` and the stick/slip switch, is the exact
+derivative of those forces (non-symmetric with friction), taken by the complex step: the forces
+are analytic in the coordinates once the facet and the active set are chosen, and the projection
+is iterated in complex arithmetic.
 
 The couplings between the two bodies are not in the sparsity pattern of the finite-element forms,
 so the pair adds its forces and tangent to the assembled PETSc vector and matrix by global index
@@ -61,7 +62,7 @@ PROJECTION_TOLERANCE = 0.05
 #: points further than this many contact cell sizes from every master facet (behind the surface
 #: as well as in front of it) are not paired
 SEARCH_DEPTH = 1.0
-#: Newton iterations of the closest-point projection onto a quadratic facet, from the chord's
+#: Newton iterations of the projection onto a master facet along its normal, from the chord's
 #: projection (round-off in three on facets of elements of fair shape)
 PROJECTION_ITERATIONS = 4
 _STEP = 1e-30      # complex-step size (coordinates are of order 1 m)
@@ -138,37 +139,61 @@ def _interpolate(N, x):
     return sum(N[i][:, None] * x[i] for i in range(len(x)))
 
 
+def _cross(a, b):
+    return a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+
+
+def _unit(v):
+    return v / np.sqrt(np.sum(v * v, axis=1))[:, None]
+
+
+def _facet_normal(x, xi, orient):
+    """Outward unit normal of facets with nodes ``x`` (list) at ``xi``."""
+    t = _interpolate(_shape(xi, len(x))[1], x)
+    return orient[:, None] * _unit(np.stack([t[:, 1], -t[:, 0]], axis=1))
+
+
 def _pair_forces(q: np.ndarray, Ns: np.ndarray, orient: np.ndarray, kw: np.ndarray, km: int,
-                 friction=None):
+                 neighbours, friction=None):
     """Gap and nodal forces of pairs.  Rows of ``q`` hold the node coordinates (possibly complex)
-    of the slave facet, then of the master facet now under the point, then of the master facet it
-    touched at the last converged step; ``Ns``: the slave shape functions at the point; ``km``: the
-    master facets' node count; ``friction``: ``(mu, k_T, xi_n, t_n, w, carried)`` (``carried``: 1
-    where the point has a converged contact to slip from, else 0) or ``None``.  Returns the gap,
-    the nodal forces (slave, master now, master then), ``xi`` and the friction traction."""
+    of the slave facet, of the master facet now under the point, of its two neighbours (before its
+    first and after its last node) and of the master facet the point touched at the last converged
+    step; ``Ns``: the slave shape functions at the point; ``km``: the master facets' node count;
+    ``neighbours``: the neighbours' orientations and the ends (0 or 1) they share with the facet
+    (pairs x 2 each); ``friction``: ``(mu, k_T, xi_n, t_n, w, carried)`` (``carried``: 1 where the
+    point has a converged contact to slip from, else 0) or ``None``.  Returns the gap, the nodal
+    forces (in the order of ``q``), ``xi`` and the friction traction."""
     ks = Ns.shape[1]
     nodes = [q[:, 2 * i: 2 * i + 2] for i in range(q.shape[1] // 2)]
     xs = _interpolate(list(Ns.T), nodes[:ks])
-    xm = nodes[ks: ks + km]
+    xm, before, after, old = (nodes[ks + j * km: ks + (j + 1) * km] for j in range(4))
+    # the master's normal: the facet's, averaged with its neighbour's at each end node, interpolated
+    (orient_before, orient_after), (end_before, end_after) = neighbours
+    zero, one = np.zeros(len(q)), np.ones(len(q))
+    nodal = [_unit(_facet_normal(xm, zero, orient) + _facet_normal(before, end_before, orient_before))]
+    if km > 2:
+        nodal.append(_facet_normal(xm, 0.5 * one, orient))
+    nodal.append(_unit(_facet_normal(xm, one, orient) + _facet_normal(after, end_after, orient_after)))
     chord = xm[-1] - xm[0]
     xi = np.sum((xs - xm[0]) * chord, axis=1) / np.sum(chord * chord, axis=1)
-    for _ in range(PROJECTION_ITERATIONS if km > 2 else 0):
-        N, dN, ddN = _shape(xi, km)
-        r, t, c = xs - _interpolate(N, xm), _interpolate(dN, xm), _interpolate(ddN, xm)
-        xi = xi - np.sum(r * t, axis=1) / (np.sum(r * c, axis=1) - np.sum(t * t, axis=1))
-    N, dN, _ = _shape(xi, km)
-    t = _interpolate(dN, xm)
-    n = orient[:, None] * np.stack([t[:, 1], -t[:, 0]], axis=1) / np.sqrt(np.sum(t * t, axis=1))[:, None]
+    for _ in range(PROJECTION_ITERATIONS):            # x_s on the normal line through x(xi)
+        N, dN, _ = _shape(xi, km)
+        r, t = xs - _interpolate(N, xm), _interpolate(dN, xm)
+        m, dm = _interpolate(N, nodal), _interpolate(dN, nodal)
+        size = np.sqrt(np.sum(m * m, axis=1))[:, None]
+        n = m / size
+        dn = (dm - n * np.sum(n * dm, axis=1)[:, None]) / size
+        xi = xi - _cross(r, n) / (_cross(-t, n) + _cross(r, dn))
+    N = _shape(xi, km)[0]
+    n = _unit(_interpolate(N, nodal))
     g = np.sum((xs - _interpolate(N, xm)) * n, axis=1)
     kwg = (kw * g)[:, None]
     f_slave = [kwg * Ns[:, i, None] * n for i in range(ks)]
     f_master = [-kwg * N[i][:, None] * n for i in range(km)]
-    f_old = [0 * kwg * n for _ in range(km)]      # the old facet enters the slip only
+    f_others = [0 * kwg * n for _ in range(3 * km)]      # the neighbours turn n, the old facet slips
     if friction is not None:
         mu, k_T, xi_n, t_n, w, carried = friction
-        old = nodes[ks + km: ks + 2 * km]
-        N_n = _shape(xi_n, km)[0]
-        slip = xs - _interpolate(N_n, old)
+        slip = xs - _interpolate(_shape(xi_n, km)[0], old)
         tau = np.stack([-n[:, 1], n[:, 0]], axis=1)
         trial = (np.sum(t_n * tau, axis=1) - k_T * np.sum(slip * tau, axis=1))[:, None] * tau
         size = np.sqrt(np.sum(trial * trial, axis=1))
@@ -179,7 +204,7 @@ def _pair_forces(q: np.ndarray, Ns: np.ndarray, orient: np.ndarray, kw: np.ndarr
         f_master = [f + w[:, None] * t_T * N[i][:, None] for i, f in enumerate(f_master)]
     else:
         t_T = 0 * n
-    return g, np.concatenate(f_slave + f_master + f_old, axis=1), xi, t_T
+    return g, np.concatenate(f_slave + f_master + f_others, axis=1), xi, t_T
 
 
 class FacetContact:
@@ -228,6 +253,18 @@ class FacetContact:
         self.point_facet = np.repeat(np.arange(len(mine)), GAUSS_POINTS)
         self.master = np.array([np.searchsorted(self.nodes, b) for b, _, _ in master_facets], dtype=np.int64)
         self.orient = np.array([_orientation(X, n) for _, X, n in master_facets])
+        # each master facet's neighbours at its first and last node, and the end they meet it
+        # with (a facet with none is its own neighbour there)
+        meeting: dict[int, list] = {}
+        for f, facet in enumerate(self.master):
+            meeting.setdefault(int(facet[0]), []).append((f, 0))
+            meeting.setdefault(int(facet[-1]), []).append((f, 1))
+        self.neighbours = np.zeros((len(self.master), 2), dtype=np.int64)
+        self.neighbour_ends = np.zeros((len(self.master), 2))
+        for f, facet in enumerate(self.master):
+            for side, (node, end) in enumerate(((facet[0], 0), (facet[-1], 1))):
+                others = [pair for pair in meeting[int(node)] if pair[0] != f] or [(f, end)]
+                self.neighbours[f, side], self.neighbour_ends[f, side] = others[0]
         self.h = contact_cell_size(problem.mesh, facet_tags, tuple(slave) + tuple(master))
         self.E = max(mat.E for mat in problem.materials.values())
         self.kappa = penalty * self.E / self.h
@@ -251,11 +288,12 @@ class FacetContact:
             x[where] += part
         return x
 
-    def _pairs(self):
-        """Penetrating points of this rank's slave facets: (points, master facets, coordinates q)."""
-        x = self._positions()
+    def _pairs(self, x=None):
+        """Penetrating points of this rank's slave facets: (points, master facets, coordinates q);
+        ``x``: the surface nodes' positions (gathered now if not given: collective)."""
+        x = self._positions() if x is None else x
         km, ks = self.master.shape[1], self.slave.shape[1]
-        empty = (np.zeros(0, dtype=np.int64),) * 2 + (np.zeros((0, 2 * (ks + 2 * km))),)
+        empty = (np.zeros(0, dtype=np.int64),) * 2 + (np.zeros((0, 2 * (ks + 4 * km))),)
         if self.point_X.size == 0:
             return empty
         xs = np.einsum("pk,pkd->pd", self.point_N, x[self.slave[self.point_facet]])
@@ -274,13 +312,23 @@ class FacetContact:
         best = np.argmin(score, axis=1)
         points = np.flatnonzero(np.isfinite(score[np.arange(len(xs)), best]))
         facets = best[points]
-        touched = np.where(self._touched[points] >= 0, self._touched[points], facets)
-        q = np.concatenate([x[self.slave[self.point_facet[points]]].reshape(len(points), -1),
-                            x[self.master[facets]].reshape(len(points), -1),
-                            x[self.master[touched]].reshape(len(points), -1)], axis=1)
-        gap = _pair_forces(q, self.point_N[points], self.orient[facets], np.zeros(len(points)), km)[0]
+        q = x[self._pair_nodes(points, facets)].reshape(len(points), 2 * (ks + 4 * km))
+        gap = _pair_forces(q, self.point_N[points], self.orient[facets], np.zeros(len(points)), km,
+                           self._neighbours(facets))[0]
         inside = gap < 0
         return (points[inside], facets[inside], q[inside]) if inside.any() else empty
+
+    def _pair_nodes(self, points, facets) -> np.ndarray:
+        """Surface nodes of the pairs: slave facet, master facet, its neighbours, the facet touched."""
+        touched = np.where(self._touched[points] >= 0, self._touched[points], facets)
+        return np.concatenate([self.slave[self.point_facet[points]], self.master[facets],
+                               self.master[self.neighbours[facets, 0]], self.master[self.neighbours[facets, 1]],
+                               self.master[touched]], axis=1)
+
+    def _neighbours(self, facets):
+        nb = self.neighbours[facets]
+        return (self.orient[nb[:, 0]], self.orient[nb[:, 1]]), (self.neighbour_ends[facets, 0],
+                                                                self.neighbour_ends[facets, 1])
 
     def _evaluate(self, points, facets, q):
         """Gap, nodal forces, xi and friction traction of the pairs (see :func:`_pair_forces`)."""
@@ -290,17 +338,15 @@ class FacetContact:
             friction = (self.friction, self.kappa, self._xi_n[points], self._t_n[points], w,
                         (self._touched[points] >= 0).astype(float))
         return _pair_forces(q, self.point_N[points], self.orient[facets], self.kappa * w, self.master.shape[1],
-                            friction)
+                            self._neighbours(facets), friction)
 
     def _dofs(self, points, facets) -> np.ndarray:
-        """Global dofs of the pairs' slave facet, master facet now and then (pairs x 2(ks + 2 km))."""
-        touched = np.where(self._touched[points] >= 0, self._touched[points], facets)
-        blocks = self.nodes[np.concatenate([self.slave[self.point_facet[points]], self.master[facets],
-                                            self.master[touched]], axis=1)]
+        """Global dofs of the pairs' nodes (:meth:`_pair_nodes`; pairs x 2(ks + 4 km))."""
+        blocks = self.nodes[self._pair_nodes(points, facets)]
         return (self.bs * blocks[:, :, None] + np.arange(2)).reshape(len(points), 2 * blocks.shape[1])
 
-    def _free(self, dofs: np.ndarray) -> np.ndarray:
-        """False where a dof is held by one of the problem's Dirichlet conditions."""
+    def _gather_constrained(self) -> None:
+        """The surface dofs held by the problem's Dirichlet conditions, once (collective)."""
         if self._constrained is None:
             bs, first = self.bs, self.first
             held = [bs * first + local[local < bs * (self.last - first)]
@@ -308,22 +354,34 @@ class FacetContact:
             held = np.concatenate(held) if held else np.zeros(0, dtype=np.int64)
             surface = (bs * self.nodes[:, None] + np.arange(2)).reshape(-1)
             self._constrained = np.unique(np.concatenate(self.comm.allgather(held[np.isin(held, surface)])))
+
+    def _free(self, dofs: np.ndarray) -> np.ndarray:
+        """False where a dof is held by one of the problem's Dirichlet conditions."""
+        self._gather_constrained()
         return ~np.isin(dofs, self._constrained)
 
     # ------------------------------------------------------------------ assembly
-    def add_residual(self, b: PETSc.Vec) -> None:
-        """Add the contact forces of the current iterate to the assembled residual ``b``."""
-        points, facets, q = self._pairs()
-        f = self._evaluate(points, facets, q)[1]
-        dofs = self._dofs(points, facets)
-        free = self._free(dofs)
-        b.setValues(dofs[free].astype(PETSc.IntType), f[free], addv=PETSc.InsertMode.ADD_VALUES)
-        b.assemblyBegin()
-        b.assemblyEnd()
+    def _on_every_rank(self, compute):
+        """``compute(x)`` of the gathered surface here (local work, no collective); if it raised on
+        any rank, raise on every rank (a rank left alone in the assembly's collective would wait
+        for ever)."""
+        x = self._positions()
+        self._gather_constrained()
+        try:
+            result, error = compute(x), None
+        except Exception as exc:          # re-raised below, after the ranks have agreed
+            result, error = None, exc
+        if not self.comm.allreduce(error is None, op=MPI.LAND):
+            raise error if error is not None else RuntimeError("contact pair: failed on another rank")
+        return result
 
-    def add_jacobian(self, A: PETSc.Mat) -> None:
-        """Add the pairs' exact tangent to the assembled Jacobian ``A`` (before its final assembly)."""
-        points, facets, q = self._pairs()
+    def _local_forces(self, x):
+        points, facets, q = self._pairs(x)
+        dofs = self._dofs(points, facets)
+        return self._evaluate(points, facets, q)[1], dofs, self._free(dofs)
+
+    def _local_tangent(self, x):
+        points, facets, q = self._pairs(x)
         m = q.shape[1]
         K = np.empty((len(points), m, m))
         for j in range(m):
@@ -331,8 +389,19 @@ class FacetContact:
             qc[:, j] += 1j * _STEP
             K[:, :, j] = self._evaluate(points, facets, qc)[1].imag / _STEP
         dofs = self._dofs(points, facets)
-        free = self._free(dofs)
-        for k in range(len(points)):
+        return K, dofs, self._free(dofs)
+
+    def add_residual(self, b: PETSc.Vec) -> None:
+        """Add the contact forces of the current iterate to the assembled residual ``b``."""
+        f, dofs, free = self._on_every_rank(self._local_forces)
+        b.setValues(dofs[free].astype(PETSc.IntType), f[free], addv=PETSc.InsertMode.ADD_VALUES)
+        b.assemblyBegin()
+        b.assemblyEnd()
+
+    def add_jacobian(self, A: PETSc.Mat) -> None:
+        """Add the pairs' exact tangent to the assembled Jacobian ``A`` (before its final assembly)."""
+        K, dofs, free = self._on_every_rank(self._local_tangent)
+        for k in range(len(K)):
             idx = dofs[k, free[k]].astype(PETSc.IntType)
             A.setValues(idx, idx, K[k][np.ix_(free[k], free[k])], addv=PETSc.InsertMode.ADD_VALUES)
 

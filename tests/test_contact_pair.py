@@ -77,6 +77,20 @@ def test_cylinder_on_block_names_a_bad_dimension(field, value):
         CylinderOnBlock(**{field: value})
 
 
+def test_a_failure_on_one_rank_is_raised_on_every_rank(comm):
+    """The pair's local work runs inside the residual's assembly, a collective: an error on one
+    rank must reach every rank, or the others would wait in the assembly for ever."""
+    _, _, ct, _ = _pair(comm, 0.02, penalty=10.0)
+
+    def local_work(x):
+        if comm.rank == comm.size - 1:
+            raise ZeroDivisionError("on the last rank")
+        return len(x)
+
+    with pytest.raises((ZeroDivisionError, RuntimeError), match="rank"):
+        ct._on_every_rank(local_work)
+
+
 @pytest.mark.parametrize("friction", [0.0, 0.3], ids=["frictionless", "coulomb"])
 def test_pair_tangent_is_the_derivative_of_the_forces(comm, friction):
     """The assembled contact tangent (complex step, per pair) times a direction equals the central
@@ -131,6 +145,19 @@ def test_pair_tangent_is_the_derivative_of_the_forces(comm, friction):
     assert scale > 0
     fd.axpy(-1.0, Jd)
     assert fd.norm() <= 1e-6 * scale, (fd.norm(), scale)
+
+
+@pytest.mark.parametrize("slave", ["top", "rim"])
+def test_whole_cylinder_touches_down_on_either_slave(comm, slave):
+    """The whole cylinder first touches the block at one point, a vertex of the master surface
+    when that is the rim: the master's normal turns continuously there, so Newton presses it
+    down without stalling (the steps are cut no more than once); the contact force is vertical
+    (|Q_H| < 1e-3 Q_V by symmetry)."""
+    pair, pb, ct, (push, _) = _pair(comm, 0.01, penalty=10.0, slave=slave, symmetric=False)
+    records = solve_load_path(pb, lambda t: setattr(push, "value", -(pair.gap + PUSH) * t),
+                              StepControl(dt=0.25, dt_max=0.25))
+    F = ct.forces()
+    assert len(records) <= 8 and abs(F.force[0]) < 1e-3 * abs(F.force[1]), (len(records), F.force)
 
 
 def test_coulomb_sliding_drags_mu_times_the_load(comm):
