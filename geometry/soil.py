@@ -282,7 +282,7 @@ def build_soil_block(comm: MPI.Comm, block: SoilBlock, opts: MeshOptions, msh_pa
                     _set_transfinite(model, axes, zones, opts)
                 else:
                     box_size_field(model, [ref.x_min, ref.x_max, -ref.half_width, ref.half_width,
-                                        -ref.depth, opts.transition], opts)
+                                           -ref.depth, opts.transition], opts)
                 cells: dict[str, list[int]] = {f"layer_{k}": [] for k in range(1, len(bottoms) + 1)}
                 cells["stiff_zone"] = []
                 for _, volume in model.getEntities(3):

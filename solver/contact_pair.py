@@ -356,8 +356,8 @@ class FacetContact:
             self._constrained = np.unique(np.concatenate(self.comm.allgather(held[np.isin(held, surface)])))
 
     def _free(self, dofs: np.ndarray) -> np.ndarray:
-        """False where a dof is held by one of the problem's Dirichlet conditions."""
-        self._gather_constrained()
+        """False where a dof is held by one of the problem's Dirichlet conditions (local: the held
+        dofs are gathered by :meth:`_on_every_rank` before the local work)."""
         return ~np.isin(dofs, self._constrained)
 
     # ------------------------------------------------------------------ assembly
