@@ -13,7 +13,7 @@ used without DOLFINx.
 from .materials import VonMises, DruckerPrager, mc_to_dp, dp_to_mc, von_mises_from_tresca  # noqa: F401
 from .return_map import (return_map, ReturnResult, elastic_stiffness, yield_function,  # noqa: F401
                          invariants, ELASTIC, PLASTIC, APEX)
-from .materials import jaky_k0, admissible_k0  # noqa: F401
+from .materials import jaky_k0, admissible_k0, NeoHookean  # noqa: F401
 from .smoothed_mc import SmoothedMohrCoulomb, mohr_coulomb_exact  # noqa: F401
 
 _LAZY = {
@@ -27,7 +27,7 @@ _LAZY = {
     "WheelIndentation": "indentation", "IndentationStep": "indentation", "LoadControlResult": "indentation",
     "WheelRolling": "rolling", "RollingStep": "rolling", "SteadyState": "rolling",
     "run_scene": "run", "FieldWriter": "fields", "DRIVERS": "drivers",
-    "Carcass": "carcass", "NeoHookean": "carcass", "FacetContact": "contact_pair",
+    "Carcass": "carcass", "FacetContact": "contact_pair",
 }
 
 
@@ -40,4 +40,4 @@ def __getattr__(name):
 
 __all__ = ["VonMises", "DruckerPrager", "mc_to_dp", "dp_to_mc", "von_mises_from_tresca", "return_map",
            "ReturnResult", "elastic_stiffness", "yield_function", "invariants", "ELASTIC", "PLASTIC",
-           "APEX", "jaky_k0", "admissible_k0", "SmoothedMohrCoulomb", "mohr_coulomb_exact", *_LAZY]
+           "APEX", "jaky_k0", "admissible_k0", "NeoHookean", "SmoothedMohrCoulomb", "mohr_coulomb_exact", *_LAZY]

@@ -15,7 +15,6 @@ the clamped facets (the tire's bead, ``hub_rim``) hold all three.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
@@ -29,6 +28,7 @@ from rollsim import compat
 from rollsim.log import get_logger
 
 from .contact import DEFAULT_PENALTY, contact_cell_size
+from .materials import NeoHookean
 from .problem import NewtonReport
 from .stepping import StepControl, StepRecord, solve_load_path
 
@@ -45,36 +45,6 @@ NEWTON_MAX_IT = 25
 #: quadrature degree of the contact-area integral: the points in contact are counted, so their
 #: spacing (about h / 7 on a quadratic facet at degree 12) sets the step of the area's jumps
 AREA_QUADRATURE_DEGREE = 12
-
-
-@dataclass(frozen=True)
-class NeoHookean:
-    """Compressible neo-Hookean solid: Young's modulus ``E`` (Pa) and Poisson's ratio ``nu`` of its
-    small-strain limit."""
-
-    E: float
-    nu: float
-
-    def __post_init__(self):
-        if not self.E > 0:
-            raise ValueError(f"E must be > 0 (Pa), got {self.E}")
-        if not -1 < self.nu < 0.5:
-            raise ValueError(f"nu must be in (-1, 0.5), got {self.nu}")
-
-    @property
-    def mu(self) -> float:
-        """Shear modulus, Pa."""
-        return self.E / (2 * (1 + self.nu))
-
-    @property
-    def lmbda(self) -> float:
-        """Lame's first parameter, Pa."""
-        return self.E * self.nu / ((1 + self.nu) * (1 - 2 * self.nu))
-
-    def first_piola(self, F):
-        """First Piola-Kirchhoff stress (UFL) of the deformation gradient ``F``."""
-        F_inv_T = ufl.inv(F).T
-        return self.mu * (F - F_inv_T) + self.lmbda * ufl.ln(ufl.det(F)) * F_inv_T
 
 
 class Carcass:

@@ -183,6 +183,39 @@ class DruckerPrager(_Elastic):
         return cls(E=E, nu=nu, phi_dp=phi_dp, c_dp=c_dp, dilation=min(psi_dp, phi_dp))
 
 
+@dataclass(frozen=True)
+class NeoHookean:
+    """Compressible neo-Hookean solid (finite strain): Young's modulus ``E`` (Pa) and Poisson's
+    ratio ``nu`` of its small-strain limit.  Strain energy per unit reference volume
+    ``psi(F) = mu/2 (tr(F^T F) - 3) - mu ln J + lambda/2 (ln J)^2``, ``J = det F``."""
+
+    E: float
+    nu: float
+
+    def __post_init__(self):
+        if not self.E > 0:
+            raise ValueError(f"E must be > 0 (Pa), got {self.E}")
+        if not -1 < self.nu < 0.5:
+            raise ValueError(f"nu must be in (-1, 0.5), got {self.nu}")
+
+    @property
+    def mu(self) -> float:
+        """Shear modulus, Pa."""
+        return self.E / (2 * (1 + self.nu))
+
+    @property
+    def lmbda(self) -> float:
+        """Lame's first parameter, Pa."""
+        return self.E * self.nu / ((1 + self.nu) * (1 - 2 * self.nu))
+
+    def first_piola(self, F):
+        """First Piola-Kirchhoff stress (UFL) of the deformation gradient ``F``:
+        ``P = mu (F - F^-T) + lambda ln(J) F^-T``."""
+        import ufl          # the constitutive code above runs without the finite-element stack
+        F_inv_T = ufl.inv(F).T
+        return self.mu * (F - F_inv_T) + self.lmbda * ufl.ln(ufl.det(F)) * F_inv_T
+
+
 def mc_to_dp(c: float, phi: float, matching: str = "compression", psi: float | None = None) -> tuple[float, float]:
     """Mohr-Coulomb (c [Pa], phi [rad]) -> Drucker-Prager (phi_dp [rad], c_dp [Pa]).
 

@@ -21,7 +21,9 @@ Extension points: :meth:`PlasticityProblem.add_residual_term` adds a UFL residua
 Gateaux derivative (rigid-wheel penalty contact is such a term, with the wheel pose in
 ``fem.Constant`` objects, see ``solver/contact.py``); :meth:`PlasticityProblem.add_assembled_term` adds
 forces and tangent entries by global index after the forms are assembled, for couplings outside
-the forms' sparsity (contact of two bodies, ``solver/contact_pair.py``).
+the forms' sparsity (contact of two bodies, ``solver/contact_pair.py``).  A cell tag given a
+:class:`~rollsim.solver.materials.NeoHookean` material is a hyperelastic body in the same system
+(e.g. a tire's carcass beside the soil): total Lagrangian, ``int P(F) : grad v`` over its cells.
 """
 from __future__ import annotations
 
@@ -40,6 +42,7 @@ from petsc4py import PETSc
 from rollsim import compat
 from rollsim.log import get_logger
 
+from .materials import NeoHookean
 from .options import (DEFAULT_VOLUMETRIC_STRAIN, KINEMATICS, LINEAR_SOLVERS, PLATEAU_RTOL, VOLUMETRIC_STRAINS,
                       check_choice)
 from .return_map import (APEX, ELASTIC, PLASTIC, ReturnResult, duvaut_lions, elastic_stiffness, return_map,
@@ -226,7 +229,9 @@ class PlasticityProblem:
     Parameters
     ----------
     mesh : dolfinx mesh (its communicator is used throughout)
-    material : ``VonMises`` or ``DruckerPrager``
+    material : ``VonMises``, ``DruckerPrager`` or ``SmoothedMohrCoulomb``, or ``{cell tag:
+        material}`` with ``cell_tags``; a tag given a ``NeoHookean`` is a hyperelastic body (finite
+        strain, total Lagrangian, no body force, no return map) solved with the others
     bcs : Dirichlet conditions on ``self.V`` (may be set later via :attr:`bcs`; build them with
         ``problem.V``)
     degree : displacement degree (2 recommended)
@@ -278,7 +283,14 @@ class PlasticityProblem:
             self.materials = dict(material)
         else:
             self.materials = {None: material}
-        self.material = next(iter(self.materials.values()))
+        if isinstance(self.materials.get(None), NeoHookean):
+            raise ValueError("material: a NeoHookean body needs its cell tag ({cell tag: material})")
+        #: the hyperelastic bodies {cell tag: NeoHookean}; the other tags are elastoplastic
+        self.hyperelastic = {tag: mat for tag, mat in self.materials.items() if isinstance(mat, NeoHookean)}
+        plastic = [mat for mat in self.materials.values() if not isinstance(mat, NeoHookean)]
+        if not plastic:
+            raise ValueError("material: give at least one elastoplastic material besides the NeoHookean bodies")
+        self.material = plastic[0]
         self.gdim = mesh.geometry.dim
         self.ncomp = 4 if self.gdim == 2 else 6
         self.degree = degree
@@ -333,6 +345,14 @@ class PlasticityProblem:
 
         self.dx = ufl.Measure("dx", domain=mesh, metadata={"quadrature_degree": self.qdeg,
                                                             "quadrature_scheme": "default"})
+        # the elastoplastic terms run over the elastoplastic cells only when there is another body
+        dx_soil, dx_body = self.dx, {}
+        if self.hyperelastic:
+            dx_tags = self.dx(subdomain_data=cell_tags)
+            dx_soil = dx_tags(tuple(tag for tag in self.materials if tag not in self.hyperelastic))
+            dx_body = {tag: ufl.Measure("dx", domain=mesh, subdomain_data=cell_tags,
+                                        metadata={"quadrature_degree": 2 * degree})(tag)
+                       for tag in self.hyperelastic}
         v = ufl.TestFunction(self.V)
         du = ufl.TrialFunction(self.V)
         self._v, self._du = v, du
@@ -341,17 +361,25 @@ class PlasticityProblem:
         self.body_force = body_force if body_force is not None else zero
         Ct = ufl.as_matrix([[self.tangent[i * nc + j] for j in range(nc)] for i in range(nc)])
         eps = self._strain
-        soil = (ufl.inner(self.sigma, eps(v)) * self._J_n * self.dx
-                - self.gravity_factor * ufl.inner(self.body_force, v) * self.dx)
+        soil = (ufl.inner(self.sigma, eps(v)) * self._J_n * dx_soil
+                - self.gravity_factor * ufl.inner(self.body_force, v) * dx_soil)
         self._sigma0 = None
         if centroid is not None:
             # the initial (geostatic) stress varies inside a cell, so it is in equilibrium with
             # the body force for the pointwise strain only: B-bar acts on the stress change
             # (residual + int sigma_0 : (eps(v) - eps_bar(v)), a constant vector)
             self._sigma0 = fem.Function(self.Qs, name="initial_stress")
-            soil += ufl.inner(self._sigma0, mandel_strain(v, self.gdim, F_inv) - eps(v)) * self._J_n * self.dx
-        self._F_terms = [soil]       # the soil's internal minus external force (internal_force)
-        self._J_terms = [ufl.inner(ufl.dot(Ct, eps(du)), eps(v)) * self._J_n * self.dx]
+            soil += ufl.inner(self._sigma0, mandel_strain(v, self.gdim, F_inv) - eps(v)) * self._J_n * dx_soil
+        bodies = soil
+        jacobian = ufl.inner(ufl.dot(Ct, eps(du)), eps(v)) * self._J_n * dx_soil
+        if self.hyperelastic:
+            F = ufl.Identity(self.gdim) + ufl.grad(self.u)
+            hyper = sum(ufl.inner(mat.first_piola(F), ufl.grad(v)) * dx_body[tag]
+                        for tag, mat in self.hyperelastic.items())
+            bodies += hyper
+            jacobian += ufl.derivative(hyper, self.u, du)
+        self._F_terms = [bodies]     # the bodies' internal minus external force (internal_force)
+        self._J_terms = [jacobian]
         self._assembled_terms: list = []
         self._compiled = False
         self._internal_force_forms: dict = {}
@@ -384,14 +412,19 @@ class PlasticityProblem:
             raise ValueError(f"cells with tag(s) {missing.tolist()} have no material "
                              f"(materials given for tags {sorted(self.materials)})")
         groups = []
+        self._body_qp = np.zeros(0, dtype=np.int64)
         for tag, mat in self.materials.items():
             cells = np.flatnonzero(tag_of == tag)
-            groups.append((mat, (cells[:, None] * nq + np.arange(nq)[None, :]).reshape(-1)))
+            qp = (cells[:, None] * nq + np.arange(nq)[None, :]).reshape(-1)
+            if tag in self.hyperelastic:       # no return map there: zero stress, zero tangent
+                self._body_qp = np.concatenate([self._body_qp, qp])
+            else:
+                groups.append((mat, qp))
         return groups
 
     def _elastic_tangent(self) -> np.ndarray:
         nc = self.ncomp
-        out = np.empty((self.n_qp, nc * nc))
+        out = np.zeros((self.n_qp, nc * nc))
         for mat, qp in self._groups:
             out[qp] = elastic_stiffness(mat, nc).reshape(-1)
         return out
@@ -464,6 +497,9 @@ class PlasticityProblem:
         """Set the converged (and current) stress from a UFL Mandel vector, e.g. geostatic."""
         expr = compat.expression(stress_ufl, self.points)
         compat.evaluate_into(expr, self.sigma_n)
+        if self.hyperelastic:           # the hyperelastic bodies carry no such stress
+            self._owned(self.sigma_n, self.ncomp)[self._body_qp] = 0.0
+            self.sigma_n.x.scatter_forward()
         self.sigma.x.array[:] = self.sigma_n.x.array
         if self._sigma0 is not None:
             self._sigma0.x.array[:] = self.sigma_n.x.array
@@ -483,7 +519,7 @@ class PlasticityProblem:
         zmin = self.comm.allreduce(float(self.mesh.geometry.x[:, self.gdim - 1].min(initial=np.inf)), op=MPI.MIN)
         sv_max = unit_weight * (surface - zmin)
         used = []
-        tags = list(self.materials)                 # the order of self._groups
+        tags = [tag for tag in self.materials if tag not in self.hyperelastic]    # self._groups' order
         for tag, (mat, _) in zip(tags, self._groups):
             k_given = K0.get(tag) if isinstance(K0, dict) else K0
             k_used, clipped = admissible_k0(mat, k_given, sv_max, self.ncomp)
@@ -543,13 +579,13 @@ class PlasticityProblem:
     def _return_map(self, sig_n: np.ndarray, deps: np.ndarray, tangent: bool) -> ReturnResult:
         """The return map of every material group (and the Duvaut-Lions step when it is on)."""
         nc = self.ncomp
-        if len(self._groups) == 1:
+        if len(self._groups) == 1 and isinstance(self._groups[0][1], slice):
             res = return_map(self.material, sig_n, deps, tangent=tangent)
-        else:
+        else:      # the points of no group (hyperelastic bodies) keep zero stress and tangent
             parts = [(qp, return_map(mat, sig_n[qp], deps[qp], tangent=tangent)) for mat, qp in self._groups]
-            res = ReturnResult(sigma=np.empty_like(sig_n), tangent=np.empty((self.n_qp, nc, nc)) if tangent else None,
-                               deps_p=np.empty_like(sig_n), dlam=np.empty(self.n_qp),
-                               state=np.empty(self.n_qp, dtype=np.int8))
+            res = ReturnResult(sigma=np.zeros_like(sig_n), tangent=np.zeros((self.n_qp, nc, nc)) if tangent else None,
+                               deps_p=np.zeros_like(sig_n), dlam=np.zeros(self.n_qp),
+                               state=np.zeros(self.n_qp, dtype=np.int8))
             for qp, r in parts:
                 res.sigma[qp], res.deps_p[qp], res.dlam[qp], res.state[qp] = r.sigma, r.deps_p, r.dlam, r.state
                 if tangent:
