@@ -1,13 +1,16 @@
-"""Two-body penalty contact accuracy: elastic cylinder on an elastic block vs Hertz.
+"""Two-body penalty contact accuracy: elastic cylinder (or sphere) on an elastic block vs Hertz.
 
 Plane strain, quarter model: cylinder R = 0.5 m, E = 20 MPa; block 1 m x 1 m, E = 10 MPa;
-nu = 0.3; the cylinder's cut is pushed down 10 mm (a ~ 0.054 m).  For element sizes ``--fine``
-(m, in a 0.1 m zone round the contact), penalty factors ``--alpha`` (kappa = alpha E_max / h)
-and either surface as the slave, prints the contact half-width a (from the pressure's second
-moment) and the peak pressure p0 against Hertz with the combined modulus, the L2 distance of the
-pressure at the integration points from Hertz's ellipse, and the Newton iterations.
+nu = 0.3; the cylinder's cut is pushed down 10 mm (a ~ 0.054 m).  ``--dim 3``: a sphere of the
+same radius and materials on a block 2 m x 2 m x 1 m, quarter model, tetrahedra
+(a ~ 0.072 m).  For element sizes ``--fine`` (m, round the contact), penalty factors ``--alpha``
+(kappa = alpha E_max / h) and either surface as the slave, prints the contact half-width or
+radius a (from the pressure's second moment) and the peak pressure p0 against Hertz with the
+combined modulus, the L2 distance of the pressure at the integration points from Hertz's, and
+the Newton iterations.
 
     python benchmarks/bench_contact_pair.py --out benchmarks/results/contact_pair.json
+    python benchmarks/bench_contact_pair.py --dim 3 --out benchmarks/results/contact_pair_3d.json
 """
 from __future__ import annotations
 
@@ -21,29 +24,34 @@ from mpi4py import MPI
 from _bench import dump_json
 
 sys.path.insert(0, str(pathlib.Path(__file__).parents[1] / "tests"))
-from test_contact_pair import hertz_pair_run  # noqa: E402
+from test_contact_pair import hertz_pair_run, hertz_sphere_run  # noqa: E402
+
+DEFAULT_FINE = {2: [0.01, 0.005, 0.0025], 3: [0.03, 0.02, 0.014]}
+DEFAULT_ALPHA = {2: [1.0, 3.0, 10.0, 30.0], 3: [3.0, 10.0]}
 
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--fine", type=float, nargs="+", default=[0.01, 0.005, 0.0025], help="element size, m")
-    p.add_argument("--alpha", type=float, nargs="+", default=[1.0, 3.0, 10.0, 30.0])
+    p.add_argument("--dim", type=int, choices=[2, 3], default=2, help="plane strain (cylinder) or 3D (sphere)")
+    p.add_argument("--fine", type=float, nargs="+", help="element size, m (default: by dimension)")
+    p.add_argument("--alpha", type=float, nargs="+", help="penalty factors (default: by dimension)")
     p.add_argument("--slave", nargs="+", choices=["top", "rim"], default=["top", "rim"],
-                   help="slave surface: the block's top (flat, softer) or the cylinder's rim")
+                   help="slave surface: the block's top (flat, softer) or the cylinder's / sphere's rim")
     p.add_argument("--out")
     args = p.parse_args(argv)
+    run = hertz_pair_run if args.dim == 2 else hertz_sphere_run
     comm = MPI.COMM_WORLD
     rows = []
     if comm.rank == 0:
         print("| slave | element (mm) | alpha | a / a_Hertz - 1 | p0 / p0_Hertz - 1 | pressure L2 / Hertz "
               "| Newton its (steps) | time (s) |\n|---|---|---|---|---|---|---|---|", flush=True)
     for slave in args.slave:
-        for fine in args.fine:
-            for alpha in args.alpha:
+        for fine in args.fine or DEFAULT_FINE[args.dim]:
+            for alpha in args.alpha or DEFAULT_ALPHA[args.dim]:
                 t0 = time.perf_counter()
-                r = hertz_pair_run(comm, fine, alpha, slave)
+                r = run(comm, fine, alpha, slave)
                 dt = comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
-                row = {"slave": slave, "fine": fine, "alpha": alpha, "a_err": r["a"] / r["a_hertz"] - 1,
+                row = {"dim": args.dim, "slave": slave, "fine": fine, "alpha": alpha, "a_err": r["a"] / r["a_hertz"] - 1,
                        "p0_err": r["p0"] / r["p0_hertz"] - 1, **r, "time_s": dt}
                 rows.append(row)
                 if comm.rank == 0:

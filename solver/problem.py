@@ -229,13 +229,15 @@ class PlasticityProblem:
     Parameters
     ----------
     mesh : dolfinx mesh (its communicator is used throughout)
-    material : ``VonMises``, ``DruckerPrager`` or ``SmoothedMohrCoulomb``, or ``{cell tag:
-        material}`` with ``cell_tags``; a tag given a ``NeoHookean`` is a hyperelastic body (finite
-        strain, total Lagrangian, no body force, no return map) solved with the others
+    material : ``VonMises``, ``DruckerPrager`` or ``SmoothedMohrCoulomb``, or
+        ``{cell tag: material}`` with ``cell_tags``; a tag given a ``NeoHookean`` is a hyperelastic
+        body (finite strain, total Lagrangian, no body force, no return map) solved with the others
     bcs : Dirichlet conditions on ``self.V`` (may be set later via :attr:`bcs`; build them with
         ``problem.V``)
     degree : displacement degree (2 recommended)
-    quadrature_degree : default ``2 * (degree - 1)`` (exact for the P2 stiffness on affine cells)
+    quadrature_degree : default ``2 * (degree - 1)`` on triangles and tetrahedra (exact for the
+        stiffness on affine cells) and ``2 * degree`` on quadrilaterals and hexahedra (full
+        integration: fewer points leave hourglass modes)
     body_force : UFL vector (N/m^3), multiplied by :attr:`gravity_factor` (a ``fem.Constant``)
     petsc_options : dict overriding :data:`DEFAULT_PETSC_OPTIONS` (and the linear solver's options)
     linear_solver : one of :data:`LINEAR_SOLVERS`; the resolved choice is :attr:`linear_solver`
@@ -294,7 +296,9 @@ class PlasticityProblem:
         self.gdim = mesh.geometry.dim
         self.ncomp = 4 if self.gdim == 2 else 6
         self.degree = degree
-        self.qdeg = quadrature_degree if quadrature_degree is not None else max(2 * (degree - 1), 1)
+        simplex = compat.cell_name(mesh) in ("triangle", "tetrahedron")
+        self.qdeg = (quadrature_degree if quadrature_degree is not None
+                     else max(2 * (degree - 1), 1) if simplex else 2 * degree)
         self.V = compat.vector_space(mesh, degree)
         self.n_dofs = self.V.dofmap.index_map.size_global * self.V.dofmap.index_map_bs   # global
         self.bcs = list(bcs)

@@ -1,9 +1,10 @@
 """Contact of two deformable bodies (solver/contact_pair.py): consistent tangent, Hertz with the
-combined modulus, mesh convergence of the pressure.
+combined modulus, mesh convergence of the pressure, the contact patch test.
 
 Plane strain: an elastic cylinder (R = 0.5 m, E = 20 MPa) pressed on an elastic block
-(E = 10 MPa), both nu = 0.3, quarter model.  The sweep over penalty factors and element sizes,
-with either surface as the slave: benchmarks/bench_contact_pair.py.
+(E = 10 MPa), both nu = 0.3, quarter model.  3D: a sphere of the same radius and materials on
+a block, and a block on a block (quarter models).  The sweep over penalty factors and element
+sizes, with either surface as the slave: benchmarks/bench_contact_pair.py.
 """
 from __future__ import annotations
 
@@ -17,7 +18,8 @@ from petsc4py import PETSc
 
 from rollsim import compat
 from rollsim.geometry import MeshOptions
-from rollsim.geometry.pair import PAIR_CELL_TAGS, CylinderOnBlock, build_cylinder_on_block
+from rollsim.geometry.pair import (PAIR_CELL_TAGS, CylinderOnBlock, SphereOnBlock, build_block_on_block,
+                                   build_cylinder_on_block, build_sphere_on_block)
 from rollsim.solver import NeoHookean, PlasticityProblem, StepControl, VonMises, solve_load_path
 from rollsim.solver.contact_pair import FacetContact
 
@@ -92,6 +94,57 @@ def test_a_failure_on_one_rank_is_raised_on_every_rank(comm):
         ct._on_every_rank(local_work)
 
 
+def _tangent_mismatch(comm, pb, ct) -> tuple[float, float]:
+    """|J d - (F(u + eps d) - F(u - eps d)) / 2 eps| and |J d| of the pair's assembled tangent J
+    and forces F at the current iterate, for a random direction d off the Dirichlet dofs (the pair
+    leaves Dirichlet rows and columns out by design)."""
+    u = compat.petsc_vector(pb.u)
+    rng = np.random.default_rng(7 + comm.rank)
+    direction = u.duplicate()
+    direction.array[:] = rng.uniform(-1, 1, direction.getLocalSize())
+    for bc in pb.bcs:
+        held = bc.dof_indices()[0]
+        direction.array[held[held < direction.getLocalSize()]] = 0.0
+    direction.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+    base = u.copy()
+
+    def at(eps):
+        base.copy(u)
+        u.axpy(eps, direction)
+        u.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
+
+    def forces(eps):
+        at(eps)
+        b = u.duplicate()
+        b.set(0.0)
+        ct.add_residual(b)
+        return b
+
+    A = pb._A.duplicate()
+    A.zeroEntries()
+    at(0.0)
+    ct.add_jacobian(A)
+    A.assemble()
+    Jd = u.duplicate()
+    A.mult(direction, Jd)
+    eps = 1e-9
+    fd = forces(eps)
+    fd.axpy(-1.0, forces(-eps))
+    fd.scale(1 / (2 * eps))
+    at(0.0)
+    fd.axpy(-1.0, Jd)
+    return fd.norm(), Jd.norm()
+
+
+def _sticking_and_slipping(comm, ct, friction) -> None:
+    """Both kinds of points are in contact now (the friction traction at and below mu p)."""
+    _, _, _, t_T = ct._evaluate(*ct._pairs())
+    t = comm.allgather(np.linalg.norm(t_T, axis=1) / (friction * ct.pressures()[2]))
+    assert_all(comm, True)
+    t = np.concatenate(t)
+    assert (t > 1 - 1e-9).any() and (t < 0.99).any(), "expected both slipping and sticking points"
+
+
 @pytest.mark.parametrize("friction", [0.0, 0.3], ids=["frictionless", "coulomb"])
 def test_pair_tangent_is_the_derivative_of_the_forces(comm, friction):
     """The assembled contact tangent (complex step, per pair) times a direction equals the central
@@ -103,49 +156,10 @@ def test_pair_tangent_is_the_derivative_of_the_forces(comm, friction):
     solve_load_path(pb, lambda t: setattr(move, "value", 0.4e-3 * t), StepControl(dt=0.5, dt_max=0.5))
     move.value = 0.5e-3                 # not committed: slipping points are off the slip limit
     assert pb.solve_increment().converged
-    u = compat.petsc_vector(pb.u)
-    rng = np.random.default_rng(7 + comm.rank)
-    direction = u.duplicate()
-    direction.array[:] = rng.uniform(-1, 1, direction.getLocalSize())
-    for bc in pb.bcs:                  # the pair leaves Dirichlet rows and columns out by design
-        held = bc.dof_indices()[0]
-        direction.array[held[held < direction.getLocalSize()]] = 0.0
-    direction.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
-    base = u.copy()
-
-    def forces(eps):
-        base.copy(u)
-        u.axpy(eps, direction)
-        u.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
-        b = u.duplicate()
-        b.set(0.0)
-        ct.add_residual(b)
-        return b
-
-    A = pb._A.duplicate()
-    A.zeroEntries()
-    base.copy(u)
-    u.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
-    ct.add_jacobian(A)
-    A.assemble()
-    Jd = u.duplicate()
-    A.mult(direction, Jd)
-    eps = 1e-9
-    fd = forces(eps)
-    fd.axpy(-1.0, forces(-eps))
-    fd.scale(1 / (2 * eps))
-    base.copy(u)
-    u.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
     if friction:
-        _, _, _, t_T = ct._evaluate(*ct._pairs())
-        t = comm.allgather(np.linalg.norm(t_T, axis=1) / (friction * ct.pressures()[2]))
-        assert_all(comm, True)
-        t = np.concatenate(t)
-        assert (t > 1 - 1e-9).any() and (t < 0.99).any(), "expected both slipping and sticking points"
-    scale = Jd.norm()
-    assert scale > 0
-    fd.axpy(-1.0, Jd)
-    assert fd.norm() <= 1e-6 * scale, (fd.norm(), scale)
+        _sticking_and_slipping(comm, ct, friction)
+    mismatch, scale = _tangent_mismatch(comm, pb, ct)
+    assert scale > 0 and mismatch <= 1e-6 * scale, (mismatch, scale)
 
 
 @pytest.mark.parametrize("slave", ["top", "rim"])
@@ -205,3 +219,124 @@ def test_neo_hookean_cylinder_reads_hertz_as_the_small_strain_one(comm):
     assert abs(finite["a"] / finite["a_hertz"] - 1) < 0.03, finite
     assert abs(finite["p0"] / finite["p0_hertz"] - 1) < 0.03, finite
     assert finite["newton_iterations"] <= small["newton_iterations"] + 2, (small, finite)
+
+
+# ---------------------------------------------------------------------------------------- 3D
+def _elastic_pair(tm, E_lower: float, E_upper: float) -> PlasticityProblem:
+    return PlasticityProblem(tm.mesh, {PAIR_CELL_TAGS["block"]: VonMises(E=E_lower, nu=NU, yield_stress=1e12),
+                                       PAIR_CELL_TAGS["cylinder"]: VonMises(E=E_upper, nu=NU, yield_stress=1e12)},
+                             cell_tags=tm.cell_tags)
+
+
+def _held_3d(pb, tm, name, axis, value=0.0):
+    Vi = pb.V.sub(axis)
+    return fem.dirichletbc(value, fem.locate_dofs_topological(Vi, 2, tm.facet_tags.find(tm.facet_names[name])), Vi)
+
+
+def _sphere(comm, fine: float, penalty: float, slave: str = "top", friction: float = 0.0):
+    """A quarter of an elastic sphere on a quarter block (symmetry planes held), its contact and
+    the Dirichlet value of the sphere's cut (push down, m)."""
+    pair = SphereOnBlock(radius=0.5, half_width=1.0, depth=1.0, zone=0.12)
+    tm = build_sphere_on_block(comm, pair, MeshOptions(fine, 15 * fine, 0.3, order=2))
+    pb = _elastic_pair(tm, E_BLOCK, E_CYLINDER)
+    push = fem.Constant(tm.mesh, 0.0)
+    pb.bcs = [_held_3d(pb, tm, "bottom", axis) for axis in range(3)]
+    pb.bcs += [_held_3d(pb, tm, "symmetry_x", 0), _held_3d(pb, tm, "symmetry_y", 1), _held_3d(pb, tm, "load", 2, push)]
+    names = tm.facet_names
+    master = "rim" if slave == "top" else "top"
+    ct = FacetContact(pb, tm.facet_tags, (names[slave],), (names[master],), penalty=penalty, friction=friction)
+    return pair, pb, ct, push
+
+
+@pytest.mark.parametrize("friction", [0.0, 0.05], ids=["frictionless", "coulomb"])
+def test_pair_tangent_in_3d_is_the_derivative_of_the_forces(comm, friction):
+    """3D (quadratic triangles, the sphere's curved surface as the master, its normal averaged
+    over the facets around each node): the tangent times a direction equals the central
+    difference of the forces to 1e-6; with friction the unlike bodies' radial expansion leaves
+    points sticking and slipping."""
+    pair, pb, ct, push = _sphere(comm, 0.04, penalty=10.0, friction=friction)
+    solve_load_path(pb, lambda t: setattr(push, "value", -(pair.gap + 0.5 * PUSH) * t),
+                    StepControl(dt=0.5, dt_max=0.5))
+    push.value = -(pair.gap + 0.6 * PUSH)          # not committed
+    assert pb.solve_increment().converged
+    if friction:
+        _sticking_and_slipping(comm, ct, friction)
+    mismatch, scale = _tangent_mismatch(comm, pb, ct)
+    assert scale > 0 and mismatch <= 1e-6 * scale, (mismatch, scale)
+
+
+def _blocks(comm, hexahedra: bool, friction: float = 0.0):
+    """A block (E 20 MPa, elements of 0.09 m) over a block (10 MPa, 0.12 m) of the same footprint,
+    sides free; its contact (the upper block's underside as the slave) and the Dirichlet value
+    of the upper block's top (push down, m)."""
+    tm = build_block_on_block(comm, W_BLOCKS, D_BLOCKS, H_BLOCKS, 1e-4, (0.12, 0.09), hexahedra=hexahedra)
+    pb = _elastic_pair(tm, E_BLOCK, E_CYLINDER)
+    push = fem.Constant(tm.mesh, 0.0)
+    pb.bcs = [_held_3d(pb, tm, "bottom", 2), _held_3d(pb, tm, "symmetry_x", 0), _held_3d(pb, tm, "symmetry_y", 1),
+              _held_3d(pb, tm, "load", 2, push)]
+    names = tm.facet_names
+    ct = FacetContact(pb, tm.facet_tags, (names["underside"],), (names["top"],), penalty=10.0, friction=friction)
+    return pb, ct, push
+
+
+W_BLOCKS, D_BLOCKS, H_BLOCKS = 0.5, 0.5, 0.3     # m
+
+
+@pytest.mark.parametrize("hexahedra", [False, True], ids=["tetrahedra", "hexahedra"])
+def test_patch_test_of_blocks_with_unlike_facets(comm, hexahedra):
+    """Blocks pressed frictionless, sides free: the stress is uniform, so the contact force is
+    ``delta / (H_1 / E_1 + H_2 / E_2 + 1 / kappa)`` times the area; within 1e-3 although the
+    facets of the two faces (triangles, or quadrilaterals of 9 nodes) do not match (the
+    pointwise pressure then scatters, docs)."""
+    delta = 1e-3
+    pb, ct, push = _blocks(comm, hexahedra)
+    solve_load_path(pb, lambda t: setattr(push, "value", -(1e-4 + delta) * t), StepControl(dt=0.5, dt_max=0.5))
+    F = ct.forces()
+    exact = delta / (H_BLOCKS / E_CYLINDER + D_BLOCKS / E_BLOCK + 1 / ct.kappa) * W_BLOCKS ** 2
+    assert abs(F.force[2] / exact - 1) < 1e-3, (F.force, exact)
+    assert abs(F.M0 / exact - 1) < 1e-3 and np.all(np.abs(F.force[:2]) < 1e-5 * exact), F
+
+
+def test_pair_tangent_on_quadrilateral_facets(comm):
+    """Hexahedra (facets of 9 nodes), Coulomb friction: the unlike blocks' lateral expansion
+    slides the faces on each other, part of the interface sticking; the tangent times a direction
+    equals the central difference of the forces to 1e-6."""
+    friction = 0.05
+    pb, ct, push = _blocks(comm, hexahedra=True, friction=friction)
+    solve_load_path(pb, lambda t: setattr(push, "value", -(1e-4 + 2e-3) * t), StepControl(dt=0.5, dt_max=0.5))
+    push.value = -(1e-4 + 2.5e-3)                   # not committed
+    assert pb.solve_increment().converged
+    _sticking_and_slipping(comm, ct, friction)
+    mismatch, scale = _tangent_mismatch(comm, pb, ct)
+    assert scale > 0 and mismatch <= 1e-6 * scale, (mismatch, scale)
+
+
+def hertz_sphere_run(comm, fine: float, penalty: float, slave: str = "top") -> dict:
+    """Press the sphere by PUSH: the contact radius a (from the pressure's second moment,
+    a^2 = 5 int x^2 p / int p for Hertz), the peak pressure p0 and the pressure's L2 distance
+    from Hertz's, against Hertz with the combined modulus (as :func:`hertz_pair_run`)."""
+    pair, pb, ct, push = _sphere(comm, fine, penalty, slave)
+    records = solve_load_path(pb, lambda t: setattr(push, "value", -(pair.gap + PUSH) * t),
+                              StepControl(dt=0.25, dt_max=0.25))
+    F = ct.forces()
+    P = 4 * abs(F.force[2])                               # N, the whole sphere
+    E_star = 1 / ((1 - NU ** 2) / E_CYLINDER + (1 - NU ** 2) / E_BLOCK)
+    a_h = (3 * P * pair.radius / (4 * E_star)) ** (1 / 3)
+    p0_h = 3 * P / (2 * math.pi * a_h ** 2)
+    X, w, p = ct.pressures()
+    hertz = p0_h * np.sqrt(np.maximum(0.0, 1 - np.sum(X[:, :2] ** 2, axis=1) / a_h ** 2))
+    l2 = math.sqrt(comm.allreduce(float(w @ (p - hertz) ** 2)) / comm.allreduce(float(w @ hertz ** 2)))
+    return {"P": P, "a": math.sqrt(5 * F.M2 / F.M0), "a_hertz": a_h, "p0": F.max_pressure, "p0_hertz": p0_h,
+            "l2": l2, "resultant": 4 * F.M0, "penetration": F.max_penetration, "h": ct.h,
+            "newton_iterations": sum(r.iterations for r in records), "steps": len(records), "dofs": pb.n_dofs}
+
+
+@pytest.mark.slow
+def test_two_body_hertz_sphere(comm):
+    """A sphere pressed on a block, both deformable: the contact radius and the peak pressure match
+    Hertz with the combined modulus within 3 % with 20 mm elements (a = 72 mm); the pressure
+    integrates to the contact force."""
+    r = hertz_sphere_run(comm, 0.02, penalty=10.0)
+    assert abs(r["a"] / r["a_hertz"] - 1) < 0.03, r
+    assert abs(r["p0"] / r["p0_hertz"] - 1) < 0.03, r
+    assert abs(r["resultant"] / r["P"] - 1) < 5e-3, r
