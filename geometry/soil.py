@@ -191,11 +191,25 @@ def _size_along(s: np.ndarray, zone: tuple[float, float], opts: MeshOptions) -> 
     return np.minimum(opts.coarse_size, opts.fine_size + (opts.coarse_size - opts.fine_size) * dist / opts.transition)
 
 
+def _entities_of(model: gmsh.model, dim: int, bodies: list[int] | None) -> list[list[int]]:
+    """Tags of the ``bodies`` (dimension ``dim``; all of the model if None) and of their boundary
+    entities, by dimension: ``[[curves], [surfaces](, [volumes])]`` from dimension 1 up."""
+    if bodies is None:
+        return [[tag for _, tag in model.getEntities(k)] for k in range(1, dim + 1)]
+    out = [list(bodies)]
+    for k in range(dim - 1, 0, -1):
+        below = model.getBoundary([(k + 1, tag) for tag in out[0]], combined=False, oriented=False)
+        out.insert(0, sorted({abs(tag) for _, tag in below}))
+    return out
+
+
 def _set_transfinite(model: gmsh.model, axes: list[np.ndarray], zones: list[tuple[float, float]],
-                     opts: MeshOptions) -> None:
-    """Structured mesh of the box grid: graded node counts per axis interval, quads/hexes."""
+                     opts: MeshOptions, bodies: list[int] | None = None) -> None:
+    """Structured mesh of the box grid (its ``bodies``, default all): graded node counts per axis
+    interval, quads/hexes."""
     dim = len(axes)
-    for _, curve in model.getEntities(1):
+    entities = _entities_of(model, dim, bodies)
+    for curve in entities[0]:
         box = np.array(model.getBoundingBox(1, curve)).reshape(2, 3)
         axis = int(np.argmax(box[1] - box[0]))
         a, b = box[0, axis], box[1, axis]
@@ -207,11 +221,11 @@ def _set_transfinite(model: gmsh.model, axes: list[np.ndarray], zones: list[tupl
         if abs(start - b) < abs(start - a):  # the curve runs from b to a
             ratio = 1.0 / ratio
         model.mesh.setTransfiniteCurve(curve, n + 1, "Progression", ratio)
-    for _, surface in model.getEntities(2):
+    for surface in entities[1]:
         model.mesh.setTransfiniteSurface(surface)
         model.mesh.setRecombine(2, surface)
     if dim == 3:
-        for _, volume in model.getEntities(3):
+        for volume in entities[2]:
             model.mesh.setTransfiniteVolume(volume)
 
 
@@ -232,11 +246,12 @@ def _build_grid(model: gmsh.model, axes: list[np.ndarray]) -> None:
 
 
 def _classify_facets(model: gmsh.model, dim: int, planes: dict[tuple[int, float], str],
-                     contact_box: list[tuple[float, float]]) -> dict[str, list[int]]:
-    """Boundary facets by plane: ``planes[(axis, value)] -> name``; top facets inside
-    ``contact_box`` (per horizontal axis) are the contact zone."""
+                     contact_box: list[tuple[float, float]], bodies: list[int] | None = None) -> dict[str, list[int]]:
+    """Boundary facets of the ``bodies`` (default all) by plane: ``planes[(axis, value)] -> name``;
+    top facets inside ``contact_box`` (per horizontal axis) are the contact zone."""
     groups: dict[str, list[int]] = {name: [] for name in FACET_TAGS}
-    boundary = model.getBoundary(model.getEntities(dim), combined=True, oriented=False)
+    bodies = [tag for _, tag in model.getEntities(dim)] if bodies is None else bodies
+    boundary = model.getBoundary([(dim, tag) for tag in bodies], combined=True, oriented=False)
     for _, facet in boundary:
         box = np.array(model.getBoundingBox(dim - 1, facet)).reshape(2, 3)[:, :dim]
         axis = int(np.argmin(box[1] - box[0]))
@@ -253,6 +268,51 @@ def _layer_of(z: float, bottoms: list[float]) -> int:
     return next(k for k, bottom in enumerate(bottoms, start=1) if z > bottom)
 
 
+def _soil_block_grid(model: gmsh.model, block: SoilBlock, opts: MeshOptions):
+    """The block's grid of boxes (its volumes, the cut positions per axis and the refined zone)."""
+    ref = block.refined
+    (x_lo, x_hi), (y_lo, y_hi) = block.x_range, block.y_range
+    t = opts.transition if opts.hexahedra else None
+    gap = opts.fine_size
+    axes = [
+        _breakpoints(x_lo, x_hi, [ref.x_min, ref.x_max] + ([] if block.x_stiff is None else [block.x_stiff]),
+                     [ref.x_min - t, ref.x_max + t] if t else [], gap),
+        _breakpoints(y_lo, y_hi, [-ref.half_width, ref.half_width],
+                     [-ref.half_width - t, ref.half_width + t] if t else [], gap),
+        _breakpoints(-block.depth, 0.0, block.layer_bottoms[:-1] + [-ref.depth], [-ref.depth - t] if t else [], gap),
+    ]
+    before = {tag for _, tag in model.getEntities(3)}
+    _build_grid(model, axes)
+    volumes = sorted({tag for _, tag in model.getEntities(3)} - before)
+    zones = [(ref.x_min, ref.x_max), (-ref.half_width, ref.half_width), (-ref.depth, 0.0)]
+    return volumes, axes, zones
+
+
+def _soil_block_groups(model: gmsh.model, block: SoilBlock, opts: MeshOptions, grid) -> tuple[dict, dict, dict]:
+    """Mesh sizes of the block's grid (``_soil_block_grid``) and its cell and facet groups:
+    (cells, facets, cell tag numbers)."""
+    volumes, axes, zones = grid
+    ref, bottoms = block.refined, block.layer_bottoms
+    if opts.hexahedra:
+        _set_transfinite(model, axes, zones, opts, volumes)
+    else:
+        box_size_field(model, [ref.x_min, ref.x_max, -ref.half_width, ref.half_width, -ref.depth, opts.transition],
+                       opts)
+    cells: dict[str, list[int]] = {f"layer_{k}": [] for k in range(1, len(bottoms) + 1)}
+    cells["stiff_zone"] = []
+    for volume in volumes:
+        x, _, z = model.occ.getCenterOfMass(3, volume)
+        stiff = block.x_stiff is not None and x < block.x_stiff
+        cells["stiff_zone" if stiff else f"layer_{_layer_of(z, bottoms)}"].append(volume)
+    (x_lo, x_hi), (y_lo, y_hi) = block.x_range, block.y_range
+    planes = {(0, x_lo): "symmetry_x" if block.cut == "quarter" else "rear", (0, x_hi): "front",
+              (1, y_lo): "side" if block.cut == "full" else "symmetry_y", (1, y_hi): "side",
+              (2, 0.0): "top", (2, -block.depth): "bottom"}
+    facets = _classify_facets(model, 3, planes, [zones[0], zones[1]], volumes)
+    numbers = {**{f"layer_{k}": k for k in range(1, len(bottoms) + 1)}, "stiff_zone": STIFF_ZONE_TAG}
+    return cells, facets, numbers
+
+
 def build_soil_block(comm: MPI.Comm, block: SoilBlock, opts: MeshOptions, msh_path=None) -> TaggedMesh:
     """Mesh a 3D soil block on rank 0 of ``comm`` and distribute it.
 
@@ -263,43 +323,12 @@ def build_soil_block(comm: MPI.Comm, block: SoilBlock, opts: MeshOptions, msh_pa
     with gmsh_model(comm, "soil_block") as model:
         with root_block(comm) as on_root:  # a failure here is raised on every rank
             if on_root:
-                ref = block.refined
-                (x_lo, x_hi), (y_lo, y_hi) = block.x_range, block.y_range
-                t = opts.transition if opts.hexahedra else None
-                gap = opts.fine_size
-                bottoms = block.layer_bottoms
-                axes = [
-                    _breakpoints(x_lo, x_hi,
-                                 [ref.x_min, ref.x_max] + ([] if block.x_stiff is None else [block.x_stiff]),
-                                 [ref.x_min - t, ref.x_max + t] if t else [], gap),
-                    _breakpoints(y_lo, y_hi, [-ref.half_width, ref.half_width],
-                                 [-ref.half_width - t, ref.half_width + t] if t else [], gap),
-                    _breakpoints(-block.depth, 0.0, bottoms[:-1] + [-ref.depth], [-ref.depth - t] if t else [], gap),
-                ]
-                _build_grid(model, axes)
-                zones = [(ref.x_min, ref.x_max), (-ref.half_width, ref.half_width), (-ref.depth, 0.0)]
-                if opts.hexahedra:
-                    _set_transfinite(model, axes, zones, opts)
-                else:
-                    box_size_field(model, [ref.x_min, ref.x_max, -ref.half_width, ref.half_width,
-                                           -ref.depth, opts.transition], opts)
-                cells: dict[str, list[int]] = {f"layer_{k}": [] for k in range(1, len(bottoms) + 1)}
-                cells["stiff_zone"] = []
-                for _, volume in model.getEntities(3):
-                    x, _, z = model.occ.getCenterOfMass(3, volume)
-                    stiff = block.x_stiff is not None and x < block.x_stiff
-                    key = "stiff_zone" if stiff else f"layer_{_layer_of(z, bottoms)}"
-                    cells[key].append(volume)
-                planes = {(0, x_lo): "symmetry_x" if block.cut == "quarter" else "rear", (0, x_hi): "front",
-                          (1, y_lo): "side" if block.cut == "full" else "symmetry_y", (1, y_hi): "side",
-                          (2, 0.0): "top", (2, -block.depth): "bottom"}
-                facets = _classify_facets(model, 3, planes, [zones[0], zones[1]])
-                numbers = {**{f"layer_{k}": k for k in range(1, len(bottoms) + 1)}, "stiff_zone": STIFF_ZONE_TAG}
+                cells, facets, numbers = _soil_block_groups(model, block, opts, _soil_block_grid(model, block, opts))
                 cell_names = add_physical_groups(model, 3, cells, numbers)
                 facet_names = add_physical_groups(model, 2, facets, FACET_TAGS)
                 model.mesh.generate(3)
                 set_order(opts.order)
-                log.info("soil block (%s, %d layer(s)%s): %s", block.cut, len(bottoms),
+                log.info("soil block (%s, %d layer(s)%s): %s", block.cut, len(block.layer_bottoms),
                          ", stiff zone" if block.x_stiff is not None else "",
                          "hexahedra" if opts.hexahedra else "tetrahedra")
         return distribute(model, comm, 3, 3, cell_names, facet_names, msh_path)

@@ -21,6 +21,7 @@ from mpi4py import MPI
 
 from rollsim.geometry.mesh import (MeshOptions, TaggedMesh, add_physical_groups, distribute, gmsh_model,
                                    log, set_order)
+from rollsim.geometry.soil import FACET_TAGS, SoilBlock, _entities_of, _soil_block_grid, _soil_block_groups
 from rollsim.mpi import root_block
 
 TREAD_THICKNESS = 0.046  # x d
@@ -146,13 +147,15 @@ def _profile(occ, tire: PneumaticTire) -> list[tuple[str, int]]:
     return faces
 
 
-def _transfinite_tire(model, tire: PneumaticTire, opts: MeshOptions) -> None:
-    """Structured counts: profile edges by length (arcs of the shoulder by angle), quarter turns by arc."""
+def _transfinite_tire(model, tire: PneumaticTire, opts: MeshOptions, volumes: list[int]) -> None:
+    """Structured counts of the tire's ``volumes``: profile edges by length (arcs of the shoulder
+    by angle), quarter turns by arc."""
     h = opts.fine_size
     xc, _, zc = tire.centre
     n_arc = max(2, math.ceil(math.pi / 2 * tire.shoulder_radius / h))
     n_turn = max(4, math.ceil(math.pi / 2 * tire.diameter / 2 / h))
-    for _, curve in model.getEntities(1):
+    curves, surfaces, volumes = _entities_of(model, 3, volumes)
+    for curve in curves:
         ends = [model.getValue(0, abs(p), []) for _, p in model.getBoundary([(1, curve)], oriented=False)]
         (x0, y0, z0), (x1, y1, z1) = ends
         r0, r1 = math.hypot(x0 - xc, z0 - zc), math.hypot(x1 - xc, z1 - zc)
@@ -164,11 +167,66 @@ def _transfinite_tire(model, tire: PneumaticTire, opts: MeshOptions) -> None:
         else:
             n = max(1, math.ceil(round(chord / h, 6)))
         model.mesh.setTransfiniteCurve(curve, n + 1)
-    for _, surface in model.getEntities(2):
+    for surface in surfaces:
         model.mesh.setTransfiniteSurface(surface)
         model.mesh.setRecombine(2, surface)
-    for _, volume in model.getEntities(3):
+    for volume in volumes:
         model.mesh.setTransfiniteVolume(volume)
+
+
+def _tire_geometry(model, tire: PneumaticTire):
+    """The carcass's volumes, revolved from its profile: (profile faces, volumes per quarter turn)."""
+    occ = model.occ
+    xc, _, zc = tire.centre
+    faces = _profile(occ, tire)
+    profile = [(2, tag) for _, tag in faces]
+    _, pieces = occ.fragment(profile, [])
+    profile = [piece[0] for piece in pieces]
+    occ.rotate(profile, 0, 0, 0, 1, 1, 1, 2 * math.pi / 3)  # (x, y, 0) -> (0, x, y)
+    occ.translate(profile, xc, 0, zc)
+    # quarter turns revolved from the previous turn's end faces, so that neighbours share faces
+    turns, source = [], profile
+    for _ in range(TIRE_CUTS[tire.cut]):
+        out = occ.revolve(source, xc, 0, zc, 0, 1, 0, math.pi / 2)
+        body = [i for i, (dim, _) in enumerate(out) if dim == 3]  # each preceded by its end face
+        turns.append([out[i] for i in body])
+        source = [out[i - 1] for i in body]
+    if tire.cut != "quarter":  # close the full turn: glue the last turn to the first
+        _, glued = occ.fragment(turns[-1], turns[0])
+        turns[-1], turns[0] = [g[0] for g in glued[:len(profile)]], [g[0] for g in glued[len(profile):]]
+    occ.synchronize()
+    return faces, turns
+
+
+def _tire_groups(model, tire: PneumaticTire, opts: MeshOptions, geometry) -> tuple[dict, dict]:
+    """Structured mesh counts of the carcass (``_tire_geometry``) and its cell and facet groups."""
+    faces, turns = geometry
+    xc, _, zc = tire.centre
+    cells = {name: [] for name in TIRE_CELL_TAGS}
+    for turn in turns:
+        for (name, _), (_, volume) in zip(faces, turn):
+            cells[name].append(volume)
+    volumes = [volume for turn in turns for _, volume in turn]
+    facets = {name: [] for name in TIRE_FACET_TAGS}
+    tol = 1e-6 * tire.diameter
+    for _, surface in model.getBoundary([(3, v) for v in volumes], combined=True, oriented=False):
+        lo, hi = model.getParametrizationBounds(2, abs(surface))
+        x, y, z = model.getValue(2, abs(surface), [(lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2])
+        box = np.array(model.getBoundingBox(2, abs(surface))).reshape(2, 3)
+        r = math.hypot(x - xc, z - zc)
+        if box[1, 1] - box[0, 1] < tol and abs(y) < tol and tire.cut != "full":
+            name = "symmetry_y"
+        elif box[1, 0] - box[0, 0] < tol and abs(x - xc) < tol and tire.cut == "quarter":
+            name = "symmetry_x"
+        elif abs(r - tire.hub_diameter / 2) < tol:
+            name = "hub_rim"
+        elif tire.on_outer_surface(np.array([r]), np.array([y]), tol)[0]:
+            name = "outer_surface"
+        else:
+            name = "inner_surface"
+        facets[name].append(abs(surface))
+    _transfinite_tire(model, tire, opts, volumes)
+    return cells, facets
 
 
 def build_tire(comm: MPI.Comm, tire: PneumaticTire, opts: MeshOptions, msh_path=None) -> TaggedMesh:
@@ -181,52 +239,50 @@ def build_tire(comm: MPI.Comm, tire: PneumaticTire, opts: MeshOptions, msh_path=
     with gmsh_model(comm, "tire") as model:
         with root_block(comm) as on_root:  # a failure here is raised on every rank
             if on_root:
-                occ = model.occ
-                xc, _, zc = tire.centre
-                faces = _profile(occ, tire)
-                profile = [(2, tag) for _, tag in faces]
-                _, pieces = occ.fragment(profile, [])
-                profile = [piece[0] for piece in pieces]
-                occ.rotate(profile, 0, 0, 0, 1, 1, 1, 2 * math.pi / 3)  # (x, y, 0) -> (0, x, y)
-                occ.translate(profile, xc, 0, zc)
-                # quarter turns revolved from the previous turn's end faces, so that neighbours share faces
-                turns, source = [], profile
-                for _ in range(TIRE_CUTS[tire.cut]):
-                    out = occ.revolve(source, xc, 0, zc, 0, 1, 0, math.pi / 2)
-                    body = [i for i, (dim, _) in enumerate(out) if dim == 3]  # each preceded by its end face
-                    turns.append([out[i] for i in body])
-                    source = [out[i - 1] for i in body]
-                if tire.cut != "quarter":  # close the full turn: glue the last turn to the first
-                    _, glued = occ.fragment(turns[-1], turns[0])
-                    turns[-1], turns[0] = [g[0] for g in glued[:len(profile)]], [g[0] for g in glued[len(profile):]]
-                occ.synchronize()
-                cells = {name: [] for name in TIRE_CELL_TAGS}
-                for turn in turns:
-                    for (name, _), (_, volume) in zip(faces, turn):
-                        cells[name].append(volume)
-                facets = {name: [] for name in TIRE_FACET_TAGS}
-                tol = 1e-6 * tire.diameter
-                for _, surface in model.getBoundary(model.getEntities(3), combined=True, oriented=False):
-                    lo, hi = model.getParametrizationBounds(2, abs(surface))
-                    x, y, z = model.getValue(2, abs(surface), [(lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2])
-                    box = np.array(model.getBoundingBox(2, abs(surface))).reshape(2, 3)
-                    r = math.hypot(x - xc, z - zc)
-                    if box[1, 1] - box[0, 1] < tol and abs(y) < tol and tire.cut != "full":
-                        name = "symmetry_y"
-                    elif box[1, 0] - box[0, 0] < tol and abs(x - xc) < tol and tire.cut == "quarter":
-                        name = "symmetry_x"
-                    elif abs(r - tire.hub_diameter / 2) < tol:
-                        name = "hub_rim"
-                    elif tire.on_outer_surface(np.array([r]), np.array([y]), tol)[0]:
-                        name = "outer_surface"
-                    else:
-                        name = "inner_surface"
-                    facets[name].append(abs(surface))
-                _transfinite_tire(model, tire, opts)
+                cells, facets = _tire_groups(model, tire, opts, _tire_geometry(model, tire))
                 cell_names = add_physical_groups(model, 3, cells, TIRE_CELL_TAGS)
                 facet_names = add_physical_groups(model, 2, facets, TIRE_FACET_TAGS)
                 model.mesh.generate(3)
                 set_order(opts.order)
                 log.info("tire (%s): d = %g m, b = %g m, hub %g m", tire.cut, tire.diameter, tire.width,
                          tire.hub_diameter)
+        return distribute(model, comm, 3, 3, cell_names, facet_names, msh_path)
+
+
+def build_tire_on_soil(comm: MPI.Comm, tire: PneumaticTire, block: SoilBlock, soil_opts: MeshOptions,
+                       tire_opts: MeshOptions, msh_path=None) -> TaggedMesh:
+    """The tire above the soil block in one mesh of hexahedra (two bodies that share no node; one
+    mesh holds one cell type, and the thin carcass needs structured hexahedra), distributed.
+
+    The block is meshed by ``soil_opts`` (``hexahedra`` required), the carcass by
+    ``tire_opts.fine_size``; both of ``soil_opts.order``.  The tire's cut must be the block's.
+    Cell tags: the block's and the carcass's (:data:`TIRE_CELL_TAGS`); facet tags: the block's
+    (``FACET_TAGS``) and the carcass's (:data:`TIRE_FACET_TAGS`; the symmetry planes share theirs).
+    """
+    if not soil_opts.hexahedra:
+        raise ValueError("soil_opts.hexahedra must be True: the carcass is meshed with hexahedra and one mesh "
+                         "holds one cell type")
+    if tire.cut != block.cut:
+        raise ValueError(f"the tire's cut ({tire.cut!r}) must be the block's ({block.cut!r})")
+    (x_lo, x_hi), _ = block.x_range, block.y_range
+    R = tire.diameter / 2
+    if not (x_lo <= tire.x_centre - (0 if tire.cut == "quarter" else R) and tire.x_centre + R <= x_hi):
+        raise ValueError(f"the tire (x_centre {tire.x_centre} m, diameter {tire.diameter} m) must lie over the "
+                         f"block (x from {x_lo} to {x_hi} m)")
+    cell_names = facet_names = None
+    with gmsh_model(comm, "tire_on_soil") as model:
+        with root_block(comm) as on_root:  # a failure here is raised on every rank
+            if on_root:
+                grid = _soil_block_grid(model, block, soil_opts)
+                carcass = _tire_geometry(model, tire)
+                cells, facets, numbers = _soil_block_groups(model, block, soil_opts, grid)
+                tire_cells, tire_facets = _tire_groups(model, tire, tire_opts, carcass)
+                for name, tags in tire_facets.items():
+                    facets.setdefault(name, []).extend(tags)
+                cell_names = add_physical_groups(model, 3, {**cells, **tire_cells}, {**numbers, **TIRE_CELL_TAGS})
+                facet_names = add_physical_groups(model, 2, facets, {**FACET_TAGS, **TIRE_FACET_TAGS})
+                model.mesh.generate(3)
+                set_order(soil_opts.order)
+                log.info("tire (%s, d = %g m) on a soil block (%d layer(s)): hexahedra", tire.cut, tire.diameter,
+                         len(block.layer_bottoms))
         return distribute(model, comm, 3, 3, cell_names, facet_names, msh_path)

@@ -27,7 +27,7 @@ _LAZY = {
     "WheelIndentation": "indentation", "IndentationStep": "indentation", "LoadControlResult": "indentation",
     "WheelRolling": "rolling", "RollingStep": "rolling", "SteadyState": "rolling",
     "run_scene": "run", "FieldWriter": "fields", "DRIVERS": "drivers",
-    "Carcass": "carcass", "FacetContact": "contact_pair",
+    "Carcass": "carcass", "FacetContact": "contact_pair", "PneumaticIndentation": "pneumatic",
 }
 
 

@@ -1,0 +1,95 @@
+"""Pneumatic tire on soil (solver/pneumatic.py): the inflated carcass and the soil in one Newton
+system, coupled by two-body contact.
+
+Mn/DOT-size tire (d = 1.524 m, quarter model, carcass E = 50 MPa, nu = 0.45, elements of 0.15 m)
+inflated to 450 kPa over a quarter soil block 1.5 m x 1.5 m x 1.5 m of hexahedra.  On a soil
+ten times stiffer than the carcass the tire carries what the verified carcass carries on rigid
+ground; on a clay it sinks, and the soil's bottom carries the wheel load.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from dolfinx import fem
+
+from rollsim.geometry import MeshOptions, build_tire, build_tire_on_soil, indentation_block, pneumatic_tire
+from rollsim.solver import NeoHookean, StepControl, VonMises
+from rollsim.solver.carcass import Carcass
+from rollsim.solver.pneumatic import PneumaticIndentation
+
+D, PRESSURE, SIZE = 1.524, 450e3, 0.15
+CARCASS = NeoHookean(50e6, 0.45)
+
+
+def _tire(gap: float = 0.03):
+    return pneumatic_tire(D, cut="quarter", gap=gap)
+
+
+def _block():
+    return indentation_block(D, half_size=1.0, depth=1.0, cut="quarter")
+
+
+def _tire_on_soil(comm, soil, friction: float, penalty: float, gap: float = 0.03) -> PneumaticIndentation:
+    tm = build_tire_on_soil(comm, _tire(gap), _block(), MeshOptions.from_refinement(D, 6, order=2, hexahedra=True),
+                            MeshOptions(SIZE, SIZE, 1.0, order=2))
+    return PneumaticIndentation(tm, soil, CARCASS, friction=friction, penalty=penalty)
+
+
+def _bottom_reaction(pn) -> float:
+    """Vertical reaction of the soil's bottom, whole wheel (N)."""
+    w = fem.Function(pn.problem.V)
+    depth = _block().depth
+    w.sub(2).interpolate(lambda x: np.where(np.isclose(x[2], -depth), 1.0, 0.0))
+    return pn.factor * pn.problem.internal_force(w)
+
+
+def test_tire_on_soil_names_what_is_wrong(comm):
+    with pytest.raises(ValueError, match="hexahedra"):
+        build_tire_on_soil(comm, _tire(), _block(), MeshOptions.from_refinement(D, 6), MeshOptions(SIZE, SIZE, 1.0))
+    with pytest.raises(ValueError, match="cut"):
+        build_tire_on_soil(comm, pneumatic_tire(D, cut="half"), _block(),
+                           MeshOptions.from_refinement(D, 6, hexahedra=True), MeshOptions(SIZE, SIZE, 1.0))
+
+
+def test_a_tire_that_inflates_into_the_soil_is_refused(comm):
+    """The tread grows by 22 mm at 450 kPa; placed 8 mm above the soil, it would inflate in contact."""
+    pn = _tire_on_soil(comm, VonMises(E=20e6, nu=0.3, yield_stress=1e5), friction=0.0, penalty=3.0, gap=0.005)
+    with pytest.raises(ValueError, match="reaches the soil"):
+        pn.inflate(PRESSURE)
+
+
+def test_tire_on_stiff_soil_carries_what_it_carries_on_rigid_ground(comm):
+    """Frictionless, on an elastic soil ten times stiffer than the carcass, pressed 30 mm after
+    touching: the wheel load is that of the carcass on rigid ground (its own verified model, the
+    same tire mesh) within 1 % (the soil settles by 0.2 mm); the soil's bottom carries it to 1e-8."""
+    deflection = 0.03
+    ground = Carcass(build_tire(comm, _tire(), MeshOptions(SIZE, SIZE, 1.0, order=2)), CARCASS, ground=0.0)
+    ground.inflate(PRESSURE)
+    ground.press(ground.lowest_point())
+    ground.press(deflection)
+    rigid = 4 * ground.ground_force()
+    pn = _tire_on_soil(comm, VonMises(E=10 * CARCASS.E, nu=0.3, yield_stress=1e12), friction=0.0, penalty=10.0)
+    pn.inflate(PRESSURE)
+    pn.touch()
+    records = pn.press(deflection, StepControl(dt=0.2, dt_max=0.25))
+    Q = pn.wheel_load()
+    assert abs(Q / rigid - 1) < 0.01, (Q, rigid)
+    assert abs(_bottom_reaction(pn) / Q - 1) < 1e-8
+    assert max(r.iterations for r in records) <= 8, [r.iterations for r in records]
+
+
+def test_tire_sinks_into_clay(comm):
+    """On a clay (von Mises, c = 60 kPa, E = 20 MPa), mu = 0.5: the hub lowered by 60 mm after
+    touching presses the tire in; the soil yields under it; the sinkage (the lowest tire point) is
+    a part of the hub's travel, the rest the tire's deflection; Newton needs few iterations per
+    step; the soil's bottom carries the wheel load."""
+    pn = _tire_on_soil(comm, VonMises(E=20e6, nu=0.3, yield_stress=3 ** 0.5 * 60e3), friction=0.5, penalty=3.0)
+    pn.inflate(PRESSURE)
+    pn.touch()
+    travel = 0.06
+    records = pn.press(travel, StepControl(dt=0.1, dt_max=0.1))
+    sinkage, Q = -pn.lowest_point(), pn.wheel_load()
+    assert 0.1 * travel < sinkage < 0.9 * travel, sinkage
+    assert pn.problem.counts()["plastic"] > 0
+    assert max(r.iterations for r in records) <= 8, [r.iterations for r in records]
+    assert Q > 0 and abs(_bottom_reaction(pn) / Q - 1) < 1e-6, Q
