@@ -361,6 +361,7 @@ class FacetContact:
         self._patches()
         self.h = contact_cell_size(problem.mesh, facet_tags, tuple(slave) + tuple(master))
         self.E = max(mat.E for mat in problem.materials.values())
+        self.alpha = float(penalty)
         self.kappa = penalty * self.E / self.h
         self._constrained = None
         # friction history per point: the master facet and xi touched at the last converged
@@ -442,6 +443,21 @@ class FacetContact:
         outside = np.maximum(np.maximum(-xi.min(axis=1), beyond - 1), 0.0)
         return points, facets, xi, g, outside
 
+    def _nearest(self, xs, x):
+        """The master facet of each point ``xs`` (current coordinates) near enough to pair:
+        (points, facets, the start of the projection ``xi``).  The nearest facet the point lies
+        over; one it lies beside (within the tolerance) only if there is none: at a concave corner
+        the extension of a facet runs inside the body."""
+        points, facets, xi, g, outside = self._candidates(xs, x)
+        score = np.abs(g) + np.where(outside > 0, (SEARCH_DEPTH + 1) * self.h + outside, 0.0)
+        keep = (outside <= PROJECTION_TOLERANCE) & (np.abs(g) <= SEARCH_DEPTH * self.h)
+        points, facets, xi, score = points[keep], facets[keep], xi[keep], score[keep]
+        best = np.lexsort((score, points))
+        first = np.ones(len(best), dtype=bool)
+        first[1:] = points[best][1:] != points[best][:-1]
+        best = best[first]
+        return points[best], facets[best], xi[best]
+
     def _pairs(self, x=None):
         """Penetrating points of this rank's slave facets: (points, master facets, coordinates q,
         the start of their projection); ``x``: the surface nodes' positions (gathered now if not
@@ -452,23 +468,46 @@ class FacetContact:
         if self.point_X.size == 0:
             return empty
         xs = np.einsum("pk,pkd->pd", self.point_N, x[self.slave[self.point_facet]])
-        points, facets, xi, g, outside = self._candidates(xs, x)
-        # the nearest facet the point lies over; one it lies beside (within the tolerance) only if
-        # there is none: at a concave corner the extension of a facet runs inside the body
-        score = np.abs(g) + np.where(outside > 0, (SEARCH_DEPTH + 1) * self.h + outside, 0.0)
-        keep = (outside <= PROJECTION_TOLERANCE) & (np.abs(g) <= SEARCH_DEPTH * self.h)
-        points, facets, xi, score = points[keep], facets[keep], xi[keep], score[keep]
+        points, facets, xi = self._nearest(xs, x)
         if not points.size:
             return empty
-        best = np.lexsort((score, points))
-        first = np.ones(len(best), dtype=bool)
-        first[1:] = points[best][1:] != points[best][:-1]
-        best = best[first]
-        points, facets, xi = points[best], facets[best], xi[best]
         q = x[self._pair_nodes(points, facets)].reshape(len(points), width)
         gap = self._evaluate(points, facets, q, xi, kw=np.zeros(len(points)))[0]
         inside = gap < 0
         return (points[inside], facets[inside], q[inside], xi[inside]) if inside.any() else empty
+
+    def contact_area(self, samples: int = 8) -> float:
+        """Area (m^2, or m in plane strain; reference measure) of the slave surface in contact now,
+        summed over all ranks: each slave facet sampled by ``samples`` points per direction
+        (midpoints of a regular subdivision), finer than its Gauss points, so that the area grows
+        smoothly as the patch spreads (collective)."""
+        x = self._positions()
+        fdim, ks, d = self.fdim, self.slave.shape[1], self.d
+        if fdim == 1 or _quadrilateral(fdim, ks):
+            t = (np.arange(samples) + 0.5) / samples
+            eta = t[:, None] if fdim == 1 else np.stack(np.meshgrid(t, t, indexing="ij"), axis=2).reshape(-1, 2)
+            weight = np.full(len(eta), 1.0 / len(eta))
+        else:                     # centroids of the samples^2 sub-triangles of the reference triangle
+            i, j = np.meshgrid(np.arange(samples), np.arange(samples), indexing="ij")
+            up = (i + j < samples)
+            down = (i + j < samples - 1)
+            eta = np.concatenate([np.stack([i[up] + 1 / 3, j[up] + 1 / 3], axis=1),
+                                  np.stack([i[down] + 2 / 3, j[down] + 2 / 3], axis=1)]) / samples
+            weight = np.full(len(eta), 0.5 / len(eta))
+        N, dN = _shape(eta, fdim, ks)
+        X = self.X[self.slave]                                            # (facets, ks, d) reference
+        T = np.einsum("pkf,ckd->cpfd", dN, X).reshape(-1, fdim, d)
+        w = (np.linalg.norm(_normal_vector(T), axis=1).reshape(len(X), len(eta)) * weight).reshape(-1)
+        xs = np.einsum("pk,ckd->cpd", N, x[self.slave]).reshape(-1, d)
+        points, facets, xi = self._nearest(xs, x) if len(xs) else (np.zeros(0, dtype=np.int64),) * 3
+        area = 0.0
+        if points.size:
+            core = np.concatenate([xs[points][:, None, :], x[self.master[facets]], x[self.master[facets]]], axis=1)
+            nodal = _nodal_normals(x[self.patch[facets]], self._surface(facets))
+            gap = _pair_forces(core.reshape(len(points), -1), np.ones((len(points), 1)), np.zeros(len(points)),
+                               nodal, xi)[0]
+            area = float(w[points[gap < 0]].sum())
+        return self.comm.allreduce(area)
 
     def _pair_nodes(self, points, facets) -> np.ndarray:
         """Surface nodes of the pairs: slave facet, master facet with its patch, the facet touched."""
@@ -631,6 +670,15 @@ class FacetContact:
         points, facets, q, xi0 = self._pairs()
         gap = self._evaluate(points, facets, q, xi0)[0]
         return self.point_X[points], self.point_w[points], -self.kappa * gap
+
+    def contact_points(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """This rank's slave points in contact now: current coordinates (m), weights (m^2, or m in
+        plane strain) and pressure (Pa) (collective)."""
+        x = self._positions()
+        points, facets, q, xi0 = self._pairs(x)
+        gap = self._evaluate(points, facets, q, xi0)[0]
+        xs = np.einsum("pk,pkd->pd", self.point_N[points], x[self.slave[self.point_facet[points]]])
+        return xs, self.point_w[points], -self.kappa * gap
 
     def forces(self) -> PairForces:
         """Force on the slave body and the pressure's extremes and moments now (collective)."""

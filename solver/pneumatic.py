@@ -9,10 +9,14 @@ its load stiffness in the Jacobian); the tire's outer surface is the slave of a
 :class:`~rollsim.solver.contact_pair.FacetContact` on the soil's top (Coulomb friction, penalty).
 Stages: :meth:`gravity_step` (the soil under its weight, the tire clear), :meth:`inflate` (the
 pressure ramped, the hub held, the tire clear of the soil), :meth:`touch` and :meth:`press` (the
-hub lowered).  Forces are of the whole wheel
-(the modelled part times the symmetry factor).
+hub lowered), or :meth:`press_to_sinkage`.  Forces are of the whole wheel (the modelled part
+times the symmetry factor).  The sinkage is the depth of the tire's lowest point below the
+undisturbed surface z = 0; :meth:`tire_state` gives the tire's deflection, contact length,
+equivalent diameter, flexibility and the carcass's share of the load.
 """
 from __future__ import annotations
+
+import time
 
 import numpy as np
 import ufl
@@ -23,20 +27,24 @@ from petsc4py import PETSc
 from rollsim.geometry.tire import TIRE_CELL_TAGS
 from rollsim.log import get_logger
 
-from .contact import DEFAULT_PENALTY
 from .contact_pair import FacetContact
-from .indentation import _NORMAL_COMPONENT, symmetry_factor
+from .indentation import _NORMAL_COMPONENT, IndentationStep, symmetry_factor
 from .materials import NeoHookean
 from .problem import PlasticityProblem
 from .stepping import SolverDivergedError, StepControl, StepRecord, solve_load_path
 
-__all__ = ["PneumaticIndentation"]
+__all__ = ["PneumaticIndentation", "TIRE_PENALTY"]
+
+#: default penalty factor of the tire-soil contact: in 3D alpha = 3 reads the pressure better than
+#: 10 (docs/verification.md, two deformable bodies) and lets the soil's penetration stay small
+TIRE_PENALTY = 3.0
 
 log = get_logger("solver")
 
 
 class PneumaticIndentation:
-    """A pneumatic tire over the soil of ``tagged`` (one mesh, :func:`~rollsim.geometry.build_tire_on_soil`).
+    """A pneumatic tire over the soil of ``tagged`` (one mesh, :func:`~rollsim.geometry.build_tire_on_soil`
+    of the :class:`~rollsim.geometry.PneumaticTire` ``tire``).
 
     ``soil``: the soil's material, or ``{cell tag: material}`` per layer; ``carcass``: a
     :class:`NeoHookean`, or ``{section name: NeoHookean}`` for ``tread``, ``transition``,
@@ -45,8 +53,8 @@ class PneumaticIndentation:
     ``linear_solver``, ``petsc_options``: as for :class:`~rollsim.solver.problem.PlasticityProblem`.
     """
 
-    def __init__(self, tagged, soil, carcass, *, gamma: float = 0.0, K0: float | None = None,
-                 friction: float = 0.0, penalty: float = DEFAULT_PENALTY, volumetric_strain: str = "pointwise",
+    def __init__(self, tagged, tire, soil, carcass, *, gamma: float = 0.0, K0: float | None = None,
+                 friction: float = 0.0, penalty: float = TIRE_PENALTY, volumetric_strain: str = "pointwise",
                  linear_solver: str = "auto", petsc_options: dict | None = None):
         msh = tagged.mesh
         names = tagged.facet_names
@@ -92,6 +100,25 @@ class PneumaticIndentation:
                                     friction=friction)
         self._outer = self._surface_z_dofs(names["outer_surface"])
         self.n_dofs = pb.n_dofs
+        self.diameter = tire.diameter
+        self.x_centre = tire.x_centre
+        self.tread_half_width = tire.width / 2 - tire.shoulder_radius    # m, the tread's flat half width
+        #: the hub's height (m, its z displacement) when the inflated tire touched the soil
+        self.hub_at_touch: float | None = None
+        #: converged steps of the press (whole-wheel forces)
+        self.steps: list[IndentationStep] = []
+        #: the rigid wheel's regularisation devices, none here (the soil is rate-independent)
+        self.relaxation_length = 0.0
+        self.relaxed_spans: list[tuple[float, float]] = []
+        self._t_last = time.perf_counter()
+
+    @property
+    def newton_iterations(self) -> int:
+        return int(self.problem.timings["iterations"])
+
+    @property
+    def cuts(self) -> int:
+        return int(sum(st.cuts for st in self.steps))
 
     def _surface_z_dofs(self, tag: int) -> tuple[np.ndarray, np.ndarray]:
         """Owned z dofs of the nodes of facets ``tag`` and their reference heights (m)."""
@@ -112,6 +139,55 @@ class PneumaticIndentation:
     def wheel_load(self) -> float:
         """Vertical force of the soil on the whole tire, N."""
         return self.factor * float(self.contact.forces().force[2])
+
+    def tire_state(self) -> dict:
+        """The tire now (SI, whole wheel; collective): ``sinkage_m``; ``hub_displacement_m``, the
+        hub's travel since the inflated tire touched the soil; ``deflection_m``, the loss of loaded
+        radius (hub travel minus sinkage); ``contact_length_m`` along the travel direction;
+        ``equivalent_diameter_m``, the diameter of the circle fitted (least squares,
+        ``z = z_0 + (x - x_c)^2 / d_e``) to the deformed contact arc of the tread's middle (the
+        contact points within a quarter of the tread's flat width of the centre plane), and
+        ``equivalent_diameter_from_length_m``, the circle through the patch's ends at the sinkage,
+        ``(l/2)^2 / s + s`` (sensitive to the patch's resolution); ``flexibility_m_per_N``,
+        ``(d_e - d) / Q`` of the fitted ``d_e`` (None where a value is undefined: no load, or too
+        few contact points on the middle of the tread for the fit);
+        ``carcass_load_share``, ``(Q - p A) / Q`` with A the contact area
+        (:meth:`~rollsim.solver.contact_pair.FacetContact.contact_area`); ``contact_area_m2``."""
+        s = -self.lowest_point()
+        Q = self.wheel_load()
+        x, w, p = self.contact.contact_points()
+        comm = self.comm
+        reach = comm.allreduce(float(np.abs(x[:, 0] - self.x_centre).max(initial=0.0)), op=MPI.MAX)
+        length = 2 * reach                     # the quarter and half models hold x >= x_centre
+        area = self.factor * self.contact.contact_area()
+        hub = 0.0 if self.hub_at_touch is None else self.hub_at_touch - float(self.hub.value[2])
+        middle = np.abs(x[:, 1]) < self.tread_half_width / 2
+        r2, z = (x[middle, 0] - self.x_centre) ** 2, x[middle, 2]
+        moments = np.array(comm.allreduce(np.array([middle.sum(), r2.sum(), (r2 * r2).sum(), z.sum(), (r2 * z).sum()])))
+        n, sx, sxx, sz, sxz = moments
+        slope = (n * sxz - sx * sz) / (n * sxx - sx * sx) if n > 2 and n * sxx - sx * sx > 0 else 0.0
+        d_e = 1.0 / slope if slope > 0 else None
+        loaded = Q > 0 and s > 0
+        return {"sinkage_m": s, "hub_displacement_m": hub, "deflection_m": hub - s, "contact_length_m": length,
+                "equivalent_diameter_m": d_e,
+                "equivalent_diameter_from_length_m": (length / 2) ** 2 / s + s if loaded else None,
+                "flexibility_m_per_N": (d_e - self.diameter) / Q if loaded and d_e is not None else None,
+                "carcass_load_share": (Q - float(self.pressure.value) * area) / Q if loaded else None,
+                "contact_area_m2": area, "wheel_load_N": Q, "inflation_Pa": float(self.pressure.value)}
+
+    def _step(self, iterations: int, cuts: int) -> IndentationStep:
+        """The record of a converged step of the press."""
+        now = time.perf_counter()
+        F = self.contact.forces()
+        pb = self.problem
+        area = self.factor * self.contact.contact_area()
+        st = IndentationStep(step=len(self.steps) + 1, sinkage=-self.lowest_point(), QV=self.factor * float(F.force[2]),
+                             QH=0.0, moment=0.0, contact_area=area, max_penetration=F.max_penetration,
+                             iterations=iterations, cuts=cuts,
+                             plastic=int(self.comm.allreduce(int(np.sum(pb.state != 0)))), time=now - self._t_last)
+        self._t_last = now
+        self.steps.append(st)
+        return st
 
     # ------------------------------------------------------------------ stages
     def gravity_step(self) -> None:
@@ -141,7 +217,35 @@ class PneumaticIndentation:
 
     def touch(self, control: StepControl | None = None) -> list[StepRecord]:
         """Lower the hub until the tire's lowest point reaches the soil's undisturbed surface."""
-        return self.press(self.lowest_point(), control or StepControl(dt=0.5, dt_max=0.5))
+        records = self.press(self.lowest_point(), control or StepControl(dt=0.5, dt_max=0.5))
+        self.hub_at_touch = float(self.hub.value[2])
+        return records
+
+    def press_to_sinkage(self, sinkage: float, step: float, stops=(), on_step=None) -> list[IndentationStep]:
+        """Press the hub down in steps until the sinkage reaches ``sinkage`` (m), aiming at it and
+        at every sinkage in ``stops``; ``step``: the largest sinkage increment (m) aimed at per
+        step.  The hub's travel per step is the aimed sinkage increment times the ratio of travel
+        to sinkage of the last step (at first 3: the tire deflects as it sinks), so a step may end
+        a little past its aim.  ``on_step(st)`` after each converged step (a step cut by the
+        stepper counts its sub-steps as cuts)."""
+        if self.hub_at_touch is None:
+            raise RuntimeError("touch() before press_to_sinkage()")
+        targets = sorted({float(t) for t in stops if 0 < t < sinkage} | {float(sinkage)})
+        ratio = 3.0
+        for target in targets:
+            while True:
+                s0 = -self.lowest_point()
+                if s0 >= target - 1e-3 * step:
+                    break
+                travel = ratio * min(step, target - s0)
+                records = self.press(travel, StepControl(dt=1.0, dt_max=1.0))
+                s1 = -self.lowest_point()
+                if s1 > s0:
+                    ratio = min(max(travel / (s1 - s0), 1.0), 20.0)
+                st = self._step(sum(r.iterations for r in records), max(len(records) - 1, 0))
+                if on_step is not None:
+                    on_step(st)
+        return self.steps
 
     def press(self, travel: float, control: StepControl | None = None, on_step=None) -> list[StepRecord]:
         """Lower the hub by ``travel`` (m) from where it is; ``on_step(t)`` after each converged

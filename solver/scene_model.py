@@ -10,8 +10,8 @@ from dataclasses import dataclass
 
 from mpi4py import MPI
 
-from rollsim.geometry import (ROLLING_START, CylinderWheel, MeshOptions, TorusWheel, build_soil_block,
-                              indentation_block, rolling_block)
+from rollsim.geometry import (ROLLING_START, CylinderWheel, MeshOptions, PneumaticTire, TorusWheel,
+                              build_soil_block, build_tire_on_soil, indentation_block, rolling_block)
 from rollsim.log import get_logger
 
 from .materials import PHI_COMPRESSION_MATCH_LIMIT, DruckerPrager, VonMises, mc_to_dp, regularised_cohesion
@@ -188,6 +188,25 @@ def indentation_mesh(scene, comm: MPI.Comm):
     return build_soil_block(comm, block, MeshOptions.from_refinement(d, scene.model.elements_per_d))
 
 
+#: gap (in d) between the pneumatic tire and the soil before inflation, and the tire's shoulder radius (in d)
+TIRE_GAP, TIRE_SHOULDER = 0.05, 0.08
+
+
+def pneumatic_mesh(scene, comm: MPI.Comm):
+    """The scene's pneumatic tire (quarter) over its quarter indentation block, one mesh of P2
+    hexahedra (``build_tire_on_soil``; the carcass meshed at the soil's fine size): (mesh, tire)."""
+    d, w = scene.wheel.diameter, scene.wheel
+    rho = min(TIRE_SHOULDER * d, 0.45 * w.width)
+    if not w.t_tread < rho:
+        raise ValueError(f"wheel.width: {w.width:g} m leaves no room for the tire's shoulder (radius {rho:g} m) "
+                         f"beyond the tread thickness {w.t_tread:g} m")
+    tire = PneumaticTire(d, w.width, w.hub_diameter, rho, w.t_tread, cut="quarter", gap=TIRE_GAP * d)
+    block = indentation_block(d, depth=block_depth(scene), cut="quarter", layers=_layer_thicknesses(scene))
+    soil = MeshOptions.from_refinement(d, scene.model.elements_per_d, order=2, hexahedra=True)
+    carcass = MeshOptions(soil.fine_size, soil.fine_size, 1.0, order=2)
+    return build_tire_on_soil(comm, tire, block, soil, carcass), tire
+
+
 def rolling_mesh(scene, comm: MPI.Comm, *, length: float | None = None, half_width: float = 1.5,
                  depth: float | None = None, stiff_length: float = 0.0):
     """Half rolling block for the scene (lengths in multiples of d).  Default length: the reference
@@ -204,8 +223,7 @@ def rolling_mesh(scene, comm: MPI.Comm, *, length: float | None = None, half_wid
 def wheel_geometry(spec):
     """The rigid wheel of a scene's ``[wheel]``: ``CylinderWheel`` or ``TorusWheel``."""
     if spec.type != "rigid":
-        raise ValueError(f"wheel.type: {spec.type!r} wheels are not available in the finite-element solver "
-                         "yet (use rigid)")
+        raise ValueError(f"wheel.type: a {spec.type} wheel runs with protocol = \"indentation\" only so far")
     if spec.shape == "torus":
         return TorusWheel(spec.diameter, spec.width)
     return CylinderWheel(spec.diameter, spec.width, spec.fillet)

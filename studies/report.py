@@ -317,6 +317,9 @@ def _scene_input(echo: dict) -> dict:
             return [clean(v) for v in obj]
         return obj
     data = clean(echo)
+    if data["wheel"].get("type") == "pneumatic":     # the echo carries the rigid wheel's keys too
+        data["wheel"].pop("shape", None)
+        data["wheel"].pop("fillet", None)
     for layer in data["soil"]["layers"]:
         if "c" not in layer:
             layer.pop("match", None)

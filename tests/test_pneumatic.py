@@ -8,14 +8,22 @@ ground; on a clay it sinks, and the soil's bottom carries the wheel load.
 """
 from __future__ import annotations
 
+import csv
+import json
+import pathlib
+import re
+
 import numpy as np
 import pytest
 from dolfinx import fem
+from mpi4py import MPI
+
+from rollsim.cli import main
 
 from rollsim.geometry import MeshOptions, build_tire, build_tire_on_soil, indentation_block, pneumatic_tire
 from rollsim.solver import NeoHookean, StepControl, VonMises
 from rollsim.solver.carcass import Carcass
-from rollsim.solver.pneumatic import PneumaticIndentation
+from rollsim.solver.pneumatic import TIRE_PENALTY, PneumaticIndentation
 
 D, PRESSURE, SIZE = 1.524, 450e3, 0.15
 CARCASS = NeoHookean(50e6, 0.45)
@@ -32,7 +40,7 @@ def _block():
 def _tire_on_soil(comm, soil, friction: float, penalty: float, gap: float = 0.03) -> PneumaticIndentation:
     tm = build_tire_on_soil(comm, _tire(gap), _block(), MeshOptions.from_refinement(D, 6, order=2, hexahedra=True),
                             MeshOptions(SIZE, SIZE, 1.0, order=2))
-    return PneumaticIndentation(tm, soil, CARCASS, friction=friction, penalty=penalty)
+    return PneumaticIndentation(tm, _tire(gap), soil, CARCASS, friction=friction, penalty=penalty)
 
 
 def _bottom_reaction(pn) -> float:
@@ -93,3 +101,49 @@ def test_tire_sinks_into_clay(comm):
     assert pn.problem.counts()["plastic"] > 0
     assert max(r.iterations for r in records) <= 8, [r.iterations for r in records]
     assert Q > 0 and abs(_bottom_reaction(pn) / Q - 1) < 1e-6, Q
+
+
+# ------------------------------------------------------------------------- rollsim run
+EXAMPLE = pathlib.Path(__file__).parents[1] / "examples" / "pneumatic_indentation.toml"
+
+
+def _example(tmp, **changes) -> pathlib.Path:
+    """The example scene with ``key = value`` lines replaced (TOML text)."""
+    text = EXAMPLE.read_text()
+    for key, value in changes.items():
+        text = re.sub(rf"(?m)^{key} = .*$", f"{key} = {value}", text)
+    path = tmp / f"scene_{'_'.join(changes) or 'example'}.toml"
+    if MPI.COMM_WORLD.rank == 0:
+        path.write_text(text)
+    MPI.COMM_WORLD.barrier()
+    return path
+
+
+def test_pneumatic_scene_runs_end_to_end(comm, tmp_mpi_path):
+    """``rollsim run`` of the example (fast preset) pressed to 12 mm: exit 0, a history, and the
+    tire's figures in summary.json: its sinkage past the target by less than one aimed step, the
+    hub's travel split into sinkage and deflection, the wheel load that of the last step."""
+    scene = _example(tmp_mpi_path, max_sinkage='"0.012 m"')
+    out = tmp_mpi_path / "run"
+    assert main(["run", str(scene), "--out", str(out), "--quiet"]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    tire = summary["tire"]
+    assert summary["status"] == "ok" and summary["steps"] >= 2
+    assert 0.012 <= tire["sinkage_m"] < 0.012 + 0.004 * 1.524, tire
+    assert tire["deflection_m"] > 0 and tire["hub_displacement_m"] == pytest.approx(tire["sinkage_m"]
+                                                                                       + tire["deflection_m"])
+    assert tire["wheel_load_N"] == pytest.approx(summary["QV_N"], rel=1e-9) and tire["wheel_load_N"] > 0
+    assert 0 < tire["carcass_load_share"] < 1 and tire["contact_length_m"] > 0
+    assert summary["model"]["contact"]["alpha"] == TIRE_PENALTY
+    with (out / "history.csv").open() as f:
+        assert len(list(csv.DictReader(f))) == summary["steps"]
+
+
+def test_pneumatic_rolling_is_refused_with_the_key(comm, tmp_mpi_path, capsys):
+    scene = _example(tmp_mpi_path, protocol='"rolling-constant-load"', max_sinkage='"0.01 m"')
+    text = scene.read_text().replace('max_sinkage = "0.01 m"', 'load = "50 kN"\ntravel = "1 m"')
+    if comm.rank == 0:
+        scene.write_text(text)
+    comm.barrier()
+    assert main(["run", str(scene), "--out", str(tmp_mpi_path / "roll")]) == 2
+    assert "wheel.type" in capsys.readouterr().err

@@ -14,7 +14,11 @@ from ..regularisation import regularisation_summary
 from ..rundir import finish_run, history_row, make_run_directory, write_history
 from ..scene_model import layer_materials, relaxation_hint, solver_options, wheel_geometry
 
-__all__ = ["ProtocolRun", "run_protected"]
+__all__ = ["ProtocolRun", "run_protected", "REPORT_S_OVER_D"]
+
+#: s/d values at which an indentation's Q_V is always computed (step boundaries; a pneumatic tire
+#: aims at them) and reported in summary.json
+REPORT_S_OVER_D = (0.01, 0.02, 0.03, 0.05, 0.08, 0.1)
 
 log = get_logger("run")
 
@@ -66,7 +70,8 @@ class ProtocolRun:
         self.root = comm.rank == 0
         self.t_start = time.perf_counter()
         self.d = scene.wheel.diameter
-        self.wheel = wheel_geometry(scene.wheel)
+        #: the rigid wheel's geometry (None for a pneumatic tire, which its driver builds)
+        self.wheel = wheel_geometry(scene.wheel) if scene.wheel.type == "rigid" else None
         self.soil = layer_materials(scene)
         self.out = make_run_directory(out_dir, comm)
         #: keywords shared by the wheel classes: what this run applies
@@ -88,7 +93,8 @@ class ProtocolRun:
         if self.progress and self.root:
             sc = self.scene
             log.info("%s: %s wheel d = %g m, mu = %g, %d layer(s), %s mesh: %d cells, %d dofs, %s strain, "
-                     "%d rank(s)%s", sc.loading.protocol, sc.wheel.shape, self.d, sc.wheel.friction,
+                     "%d rank(s)%s", sc.loading.protocol,
+                     sc.wheel.shape if sc.wheel.type == "rigid" else sc.wheel.type, self.d, sc.wheel.friction,
                      len(self.soil.by_layer), sc.model.mesh_name, self.tagged.stats.cells, self.wheel_run.n_dofs,
                      self.wheel_run.problem.volumetric_strain, self.comm.size, f"; {loading}" if loading else "")
 

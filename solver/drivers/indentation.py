@@ -8,14 +8,13 @@ from rollsim.log import get_logger
 
 from ..indentation import WheelIndentation
 from ..scene_model import indentation_mesh
-from .base import ProtocolRun
+from .base import REPORT_S_OVER_D, ProtocolRun
+from .pneumatic import run_pneumatic_indentation
 
 __all__ = ["run_indentation", "REPORT_S_OVER_D"]
 
 log = get_logger("run")
 
-#: s/d values at which Q_V is always computed (step boundaries) and reported in summary.json
-REPORT_S_OVER_D = (0.01, 0.02, 0.03, 0.05, 0.08, 0.1)
 
 
 def run_indentation(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_options: dict | None = None,
@@ -23,6 +22,9 @@ def run_indentation(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, pe
     """Indentation of ``scene`` on ``comm``; writes the run directory ``out_dir`` and returns the
     summary.  A solver failure after step cutting does not raise: the summary has ``status =
     "failed"`` and ``reason``, and the last converged state is written."""
+    if scene.wheel.type == "pneumatic":
+        return run_pneumatic_indentation(scene, out_dir, comm, progress=progress, write_fields=write_fields,
+                                         petsc_options=petsc_options, penalty=penalty)
     run = ProtocolRun(scene, out_dir, comm, progress=progress, write_fields=write_fields,
                       petsc_options=petsc_options, penalty=penalty)
     d, s_max = run.d, scene.loading.max_sinkage
