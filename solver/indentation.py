@@ -93,6 +93,18 @@ class IndentationStep:
     time: float             # wall time of the step, s
 
 
+class StepCounts:
+    """Newton iterations and step cuts so far of a driver with a ``problem`` and its ``steps``."""
+
+    @property
+    def newton_iterations(self) -> int:
+        return int(self.problem.timings["iterations"])
+
+    @property
+    def cuts(self) -> int:
+        return int(sum(st.cuts for st in self.steps))
+
+
 @dataclass
 class LoadControlResult:
     status: str                     # "ok" | "exceeds_capacity" | "failed"
@@ -110,7 +122,7 @@ class _Bracketed(Exception):
     pass
 
 
-class WheelIndentation:
+class WheelIndentation(StepCounts):
     """A rigid wheel (``CylinderWheel``/``TorusWheel`` in 3D, ``Circle`` in 2D) on a soil block.
 
     ``material``: one material or ``{cell tag: material}`` (layers: tag k = layer_k); ``gamma``:
@@ -384,13 +396,6 @@ class WheelIndentation:
     _t_last = time.perf_counter()
     _attempts = 0
 
-    @property
-    def newton_iterations(self) -> int:
-        return int(self.problem.timings["iterations"])
-
-    @property
-    def cuts(self) -> int:
-        return int(sum(st.cuts for st in self.steps))
 
     def push_to_load(self, load: float, sinkage_limit: float, control: StepControl | None = None,
                      rtol: float = 1e-4, max_trials: int = 40) -> LoadControlResult:

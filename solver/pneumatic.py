@@ -28,7 +28,7 @@ from rollsim.geometry.tire import TIRE_CELL_TAGS
 from rollsim.log import get_logger
 
 from .contact_pair import FacetContact
-from .indentation import _NORMAL_COMPONENT, IndentationStep, symmetry_factor
+from .indentation import _NORMAL_COMPONENT, IndentationStep, StepCounts, symmetry_factor
 from .materials import NeoHookean
 from .problem import PlasticityProblem
 from .stepping import SolverDivergedError, StepControl, StepRecord, solve_load_path
@@ -42,7 +42,7 @@ TIRE_PENALTY = 3.0
 log = get_logger("solver")
 
 
-class PneumaticIndentation:
+class PneumaticIndentation(StepCounts):
     """A pneumatic tire over the soil of ``tagged`` (one mesh, :func:`~rollsim.geometry.build_tire_on_soil`
     of the :class:`~rollsim.geometry.PneumaticTire` ``tire``).
 
@@ -112,13 +112,6 @@ class PneumaticIndentation:
         self.relaxed_spans: list[tuple[float, float]] = []
         self._t_last = time.perf_counter()
 
-    @property
-    def newton_iterations(self) -> int:
-        return int(self.problem.timings["iterations"])
-
-    @property
-    def cuts(self) -> int:
-        return int(sum(st.cuts for st in self.steps))
 
     def _surface_z_dofs(self, tag: int) -> tuple[np.ndarray, np.ndarray]:
         """Owned z dofs of the nodes of facets ``tag`` and their reference heights (m)."""
@@ -145,12 +138,12 @@ class PneumaticIndentation:
         hub's travel since the inflated tire touched the soil; ``deflection_m``, the loss of loaded
         radius (hub travel minus sinkage); ``contact_length_m`` along the travel direction;
         ``equivalent_diameter_m``, the diameter of the circle fitted (least squares,
-        ``z = z_0 + (x - x_c)^2 / d_e``) to the deformed contact arc of the tread's middle (the
-        contact points within a quarter of the tread's flat width of the centre plane), and
+        ``z = z_0 + (x - x_c)^2 / d_e``) to the deformed contact arc of the tread (the contact
+        points on its flat part), and
         ``equivalent_diameter_from_length_m``, the circle through the patch's ends at the sinkage,
         ``(l/2)^2 / s + s`` (sensitive to the patch's resolution); ``flexibility_m_per_N``,
         ``(d_e - d) / Q`` of the fitted ``d_e`` (None where a value is undefined: no load, or too
-        few contact points on the middle of the tread for the fit);
+        few contact points on the tread for the fit);
         ``carcass_load_share``, ``(Q - p A) / Q`` with A the contact area
         (:meth:`~rollsim.solver.contact_pair.FacetContact.contact_area`); ``contact_area_m2``."""
         s = -self.lowest_point()
@@ -161,7 +154,7 @@ class PneumaticIndentation:
         length = 2 * reach                     # the quarter and half models hold x >= x_centre
         area = self.factor * self.contact.contact_area()
         hub = 0.0 if self.hub_at_touch is None else self.hub_at_touch - float(self.hub.value[2])
-        middle = np.abs(x[:, 1]) < self.tread_half_width / 2
+        middle = np.abs(x[:, 1]) < self.tread_half_width
         r2, z = (x[middle, 0] - self.x_centre) ** 2, x[middle, 2]
         moments = np.array(comm.allreduce(np.array([middle.sum(), r2.sum(), (r2 * r2).sum(), z.sum(), (r2 * z).sum()])))
         n, sx, sxx, sz, sxz = moments

@@ -90,7 +90,9 @@ def test_tire_sinks_into_clay(comm):
     """On a clay (von Mises, c = 60 kPa, E = 20 MPa), mu = 0.5: the hub lowered by 60 mm after
     touching presses the tire in; the soil yields under it; the sinkage (the lowest tire point) is
     a part of the hub's travel, the rest the tire's deflection; Newton needs few iterations per
-    step; the soil's bottom carries the wheel load."""
+    step; the soil's bottom carries the wheel load.  The tread's contact arc is flatter than the
+    tire (equivalent diameter above d: a positive flexibility) and the gas carries most of the
+    load (measured: d_e = 1.73 d, carcass share 15 %)."""
     pn = _tire_on_soil(comm, VonMises(E=20e6, nu=0.3, yield_stress=3 ** 0.5 * 60e3), friction=0.5, penalty=3.0)
     pn.inflate(PRESSURE)
     pn.touch()
@@ -101,6 +103,10 @@ def test_tire_sinks_into_clay(comm):
     assert pn.problem.counts()["plastic"] > 0
     assert max(r.iterations for r in records) <= 8, [r.iterations for r in records]
     assert Q > 0 and abs(_bottom_reaction(pn) / Q - 1) < 1e-6, Q
+    tire = pn.tire_state()
+    assert tire["hub_displacement_m"] == pytest.approx(travel) and tire["deflection_m"] == pytest.approx(travel - sinkage)
+    assert tire["equivalent_diameter_m"] > 1.2 * D and tire["flexibility_m_per_N"] > 0, tire
+    assert 0 < tire["carcass_load_share"] < 0.5, tire
 
 
 # ------------------------------------------------------------------------- rollsim run

@@ -108,6 +108,13 @@ class ProtocolRun:
             self.writer.write(field_time)
         write_history(self.out, self.rows, self.comm)
 
+    def record_sinkage_step(self, st) -> None:
+        """An indentation step ``st``: :meth:`record` (fields at time = the sinkage) and a progress line."""
+        self.record(st, 0.0, st.sinkage)
+        if self.progress and self.root:
+            log.info("step %3d  s = %.5f m (s/d = %.4f)  Q_V = %10.2f kN  Newton its %d", st.step, st.sinkage,
+                     st.sinkage / self.d, st.QV / 1e3, st.iterations)
+
     def execute(self, body: Callable[[], str | None], state: Callable[[], dict]) -> tuple[str, str, dict]:
         """:func:`run_protected` of ``body``; a failure's reason names the remedies that apply."""
         status, reason, diagnostics = run_protected(body, self.comm, state)

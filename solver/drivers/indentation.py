@@ -4,17 +4,12 @@ from __future__ import annotations
 
 from mpi4py import MPI
 
-from rollsim.log import get_logger
-
 from ..indentation import WheelIndentation
 from ..scene_model import indentation_mesh
 from .base import REPORT_S_OVER_D, ProtocolRun
 from .pneumatic import run_pneumatic_indentation
 
 __all__ = ["run_indentation", "REPORT_S_OVER_D"]
-
-log = get_logger("run")
-
 
 
 def run_indentation(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_options: dict | None = None,
@@ -32,16 +27,10 @@ def run_indentation(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, pe
     ind = WheelIndentation(tagged, run.wheel, run.soil.single_or_dict, **run.solver_options)
     run.attach(tagged, ind)
 
-    def on_step(st):
-        run.record(st, 0.0, st.sinkage)
-        if progress and run.root:
-            log.info("step %3d  s = %.5f m (s/d = %.4f)  Q_V = %10.2f kN  Newton its %d", st.step, st.sinkage,
-                     st.sinkage / d, st.QV / 1e3, st.iterations)
-
     def indentation():
         run.announce(f"s -> {s_max:g} m")
         ind.gravity_step()
-        ind.push(s_max, stops=[r * d for r in REPORT_S_OVER_D if r * d < s_max], on_step=on_step)
+        ind.push(s_max, stops=[r * d for r in REPORT_S_OVER_D if r * d < s_max], on_step=run.record_sinkage_step)
 
     status, reason, diagnostics = run.execute(
         indentation, lambda: {"last_converged_sinkage_m": ind.sinkage, "step_cuts_total": ind.cuts})

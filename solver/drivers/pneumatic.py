@@ -41,19 +41,13 @@ def run_pneumatic_indentation(scene, out_dir, comm: MPI.Comm, *, progress: bool 
                               petsc_options=petsc_options)
     run.attach(tagged, pn)
 
-    def on_step(st):
-        run.record(st, 0.0, st.sinkage)
-        if progress and run.root:
-            log.info("step %3d  s = %.5f m (s/d = %.4f)  Q_V = %10.2f kN  Newton its %d", st.step, st.sinkage,
-                     st.sinkage / d, st.QV / 1e3, st.iterations)
-
     def indentation():
         run.announce(f"inflation {w.inflation / 1e3:g} kPa, then s -> {s_max:g} m")
         pn.gravity_step()
         pn.inflate(w.inflation)
         pn.touch()
         pn.press_to_sinkage(s_max, SINKAGE_STEP * d, stops=[r * d for r in REPORT_S_OVER_D if r * d < s_max],
-                            on_step=on_step)
+                            on_step=run.record_sinkage_step)
 
     status, reason, diagnostics = run.execute(
         indentation, lambda: {"last_converged_sinkage_m": -pn.lowest_point(), "step_cuts_total": pn.cuts})
