@@ -17,6 +17,7 @@ __all__ = [
     "ACCURACY_REFINEMENT", "FACET_TAGS", "ROLLING_START", "STIFF_ZONE_TAG", "TIRE_CELL_TAGS", "TIRE_FACET_TAGS",
     "CylinderOnBlock", "CylinderWheel", "InvertedElementError", "MeshOptions", "MeshQuality", "MeshStats",
     "PlaneStrainBlock", "PneumaticTire", "RefinedZone", "SoilBlock", "SphereOnBlock", "TaggedMesh", "TorusWheel",
-    "build_block_on_block", "build_cylinder_on_block", "build_sphere_on_block", "build_tire_on_soil", "build_plane_strain_block", "build_soil_block", "build_tire", "build_wheel_surface",
+    "build_block_on_block", "build_cylinder_on_block", "build_plane_strain_block", "build_soil_block",
+    "build_sphere_on_block", "build_tire", "build_tire_on_soil", "build_wheel_surface",
     "indentation_block", "mesh_quality", "pneumatic_tire", "rolling_block",
 ]

@@ -600,7 +600,8 @@ class FacetContact:
         for j in range(P * d):
             pc = patch.astype(complex).reshape(len(unique), P * d)
             pc[:, j] += 1j * _STEP
-            D_nodal[:, :, j] = _nodal_normals(pc.reshape(patch.shape), surface).reshape(len(unique), km * d).imag / _STEP
+            normals = _nodal_normals(pc.reshape(patch.shape), surface)
+            D_nodal[:, :, j] = normals.reshape(len(unique), km * d).imag / _STEP
         nodal = _nodal_normals(patch, surface)[inverse]
         K_core = np.empty((n, loaded, core.shape[1]))
         for j in range(core.shape[1]):

@@ -112,11 +112,10 @@ class PneumaticIndentation(StepCounts):
         self.relaxed_spans: list[tuple[float, float]] = []
         self._t_last = time.perf_counter()
 
-
     def _surface_z_dofs(self, tag: int) -> tuple[np.ndarray, np.ndarray]:
         """Owned z dofs of the nodes of facets ``tag`` and their reference heights (m)."""
         V = self.problem.V
-        Vz, to_parent = V.sub(2).collapse()
+        Vz, _ = V.sub(2).collapse()
         local = fem.locate_dofs_topological((V.sub(2), Vz), 2, self.tagged.facet_tags.find(tag))[0]
         owned = local[local < V.dofmap.index_map.size_local * V.dofmap.index_map_bs]
         heights = V.tabulate_dof_coordinates()[owned // V.dofmap.index_map_bs, 2]
@@ -148,16 +147,16 @@ class PneumaticIndentation(StepCounts):
         (:meth:`~rollsim.solver.contact_pair.FacetContact.contact_area`); ``contact_area_m2``."""
         s = -self.lowest_point()
         Q = self.wheel_load()
-        x, w, p = self.contact.contact_points()
+        x = self.contact.contact_points()[0]
         comm = self.comm
         reach = comm.allreduce(float(np.abs(x[:, 0] - self.x_centre).max(initial=0.0)), op=MPI.MAX)
         length = 2 * reach                     # the quarter and half models hold x >= x_centre
         area = self.factor * self.contact.contact_area()
         hub = 0.0 if self.hub_at_touch is None else self.hub_at_touch - float(self.hub.value[2])
-        middle = np.abs(x[:, 1]) < self.tread_half_width
-        r2, z = (x[middle, 0] - self.x_centre) ** 2, x[middle, 2]
-        moments = np.array(comm.allreduce(np.array([middle.sum(), r2.sum(), (r2 * r2).sum(), z.sum(), (r2 * z).sum()])))
-        n, sx, sxx, sz, sxz = moments
+        tread = np.abs(x[:, 1]) < self.tread_half_width          # the fit of z = z_0 + r2 / d_e
+        r2, z = (x[tread, 0] - self.x_centre) ** 2, x[tread, 2]
+        sums = np.array([tread.sum(), r2.sum(), (r2 * r2).sum(), z.sum(), (r2 * z).sum()])
+        n, sx, sxx, sz, sxz = comm.allreduce(sums)
         slope = (n * sxz - sx * sz) / (n * sxx - sx * sx) if n > 2 and n * sxx - sx * sx > 0 else 0.0
         d_e = 1.0 / slope if slope > 0 else None
         loaded = Q > 0 and s > 0

@@ -104,7 +104,8 @@ def test_tire_sinks_into_clay(comm):
     assert max(r.iterations for r in records) <= 8, [r.iterations for r in records]
     assert Q > 0 and abs(_bottom_reaction(pn) / Q - 1) < 1e-6, Q
     tire = pn.tire_state()
-    assert tire["hub_displacement_m"] == pytest.approx(travel) and tire["deflection_m"] == pytest.approx(travel - sinkage)
+    assert tire["hub_displacement_m"] == pytest.approx(travel)
+    assert tire["deflection_m"] == pytest.approx(travel - sinkage)
     assert tire["equivalent_diameter_m"] > 1.2 * D and tire["flexibility_m_per_N"] > 0, tire
     assert 0 < tire["carcass_load_share"] < 0.5, tire
 
