@@ -358,6 +358,10 @@ class FacetContact:
         self.point_N = np.tile(N, (len(mine), 1))
         self.point_facet = np.repeat(np.arange(len(mine)), len(gw))
         self.master = np.array([np.searchsorted(self.nodes, b) for b, _ in master_facets], dtype=np.int64)
+        km = self.master.shape[1]
+        self._quadrilateral = _quadrilateral(fdim, km)
+        #: the master facets' corner nodes (columns of :attr:`master`), for the search
+        self._corners = [0, km - 1] if fdim == 1 else [0, 1, 2, 3] if self._quadrilateral else [0, 1, 2]
         self._patches()
         self.h = contact_cell_size(problem.mesh, facet_tags, tuple(slave) + tuple(master))
         self.E = max(mat.E for mat in problem.materials.values())
@@ -406,8 +410,6 @@ class FacetContact:
                     self.ring[f, i, slot] = [index[int(n)] for n in master[g]]
                     self.ring_weight[f, i, slot] = 1.0 if slot < len(around) else 0.0
                     self.ring_dN[f, i, slot] = dN_at[j]
-        self._quadrilateral = _quadrilateral(fdim, km)
-        self._corners = [0, km - 1] if fdim == 1 else [0, 1, 2, 3] if self._quadrilateral else [0, 1, 2]
 
     # ------------------------------------------------------------------ state
     def _positions(self) -> np.ndarray:
@@ -665,21 +667,22 @@ class FacetContact:
 
     # ------------------------------------------------------------------ reading
     def pressures(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """This rank's slave points in contact now: reference coordinates (m), weights (m) and
-        pressure (Pa); the weights sum the pressure to a force (per unit length in plane strain;
-        collective)."""
-        points, facets, q, xi0 = self._pairs()
-        gap = self._evaluate(points, facets, q, xi0)[0]
-        return self.point_X[points], self.point_w[points], -self.kappa * gap
+        """This rank's slave points in contact now: reference coordinates (m), weights (m^2, or m)
+        and pressure (Pa); the weights sum the pressure to a force (per unit length in plane
+        strain; collective)."""
+        return self._in_contact(current=False)
 
     def contact_points(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """This rank's slave points in contact now: current coordinates (m), weights (m^2, or m in
-        plane strain) and pressure (Pa) (collective)."""
+        """:meth:`pressures` with the points' current coordinates (m) (collective)."""
+        return self._in_contact(current=True)
+
+    def _in_contact(self, current: bool):
         x = self._positions()
         points, facets, q, xi0 = self._pairs(x)
         gap = self._evaluate(points, facets, q, xi0)[0]
-        xs = np.einsum("pk,pkd->pd", self.point_N[points], x[self.slave[self.point_facet[points]]])
-        return xs, self.point_w[points], -self.kappa * gap
+        where = (np.einsum("pk,pkd->pd", self.point_N[points], x[self.slave[self.point_facet[points]]]) if current
+                 else self.point_X[points])
+        return where, self.point_w[points], -self.kappa * gap
 
     def forces(self) -> PairForces:
         """Force on the slave body and the pressure's extremes and moments now (collective)."""
