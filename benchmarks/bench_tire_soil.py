@@ -2,14 +2,15 @@
 
     python benchmarks/bench_tire_soil.py --out benchmarks/results/tire_soil.json
     python benchmarks/bench_tire_soil.py --levels 6:0.15 9:0.1 --rigid 8 12
+    python benchmarks/bench_tire_soil.py --levels --rigid 9 12 --rigid-hexahedra --strain pointwise
 
 A tire of the Mn/DOT roller's size (d = 1.524 m, b = 0.3 d, hub 0.5 d, shoulder radius 0.08 d,
 carcass E = ``--E`` MPa, nu = 0.45, inflated to ``--pressure`` kPa) and a rigid cylinder of the
 same diameter and width (fillet b/12) are pressed into the same clay (von Mises, c = 60 kPa,
-E = 20 MPa, nu = 0.3, gamma = 18 kN/m^3, mu = 0.5, B-bar strain), quarter models on a block of
+E = 20 MPa, nu = 0.3, gamma = 18 kN/m^3, mu = 0.5, ``--strain``), quarter models on a block of
 1 d each side and 1 d deep.  Each ``--levels`` entry ``n:h`` meshes the tire-on-soil model with
 ``n`` soil elements per d (hexahedra) and carcass elements of ``h`` m; each ``--rigid`` entry the
-rigid wheel's block with that many elements per d (tetrahedra).  Both are pressed in steps of
+rigid wheel's block with that many elements per d (tetrahedra, or ``--rigid-hexahedra``).  Both are pressed in steps of
 about ``--step`` d of sinkage to ``--sinkage`` m.  Prints, per run, the wheel load at that
 sinkage and the sinkage at the wheel load ``--load`` kN (both interpolated linearly in the
 force-sinkage curve), and for the tire its deflection, equivalent diameter, flexibility and
@@ -29,6 +30,7 @@ from _bench import dump_json
 from rollsim.geometry import (CylinderWheel, MeshOptions, build_soil_block, build_tire_on_soil, indentation_block,
                               pneumatic_tire)
 from rollsim.solver import NeoHookean, StepControl, VonMises, WheelIndentation
+from rollsim.solver.options import VOLUMETRIC_STRAINS
 from rollsim.solver.pneumatic import PneumaticIndentation
 
 D = 1.524
@@ -55,14 +57,14 @@ def _fmt(value, spec: str, scale: float = 1.0) -> str:
 
 
 def tire_run(comm, per_d: float, size: float, pressure: float, young: float, sinkage: float, load: float,
-             step: float) -> dict:
+             step: float, strain: str) -> dict:
     """The tire pressed to ``sinkage`` (m) in steps of ``step`` (m): its curve and its figures at the end."""
     t0 = time.perf_counter()
     tire = pneumatic_tire(D, cut="quarter", gap=0.05)
     tagged = build_tire_on_soil(comm, tire, _block(), MeshOptions.from_refinement(D, per_d, order=2, hexahedra=True),
                                 MeshOptions(size, size, 1.0, order=2))
     pn = PneumaticIndentation(tagged, tire, CLAY, NeoHookean(young, 0.45), gamma=GAMMA, friction=FRICTION,
-                              volumetric_strain="cell-average")
+                              volumetric_strain=strain)
     pn.gravity_step()
     pn.inflate(pressure)
     pn.touch()
@@ -73,25 +75,28 @@ def tire_run(comm, per_d: float, size: float, pressure: float, young: float, sin
             "newton_iterations": pn.newton_iterations, "time_s": comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)}
 
 
-def rigid_run(comm, per_d: float, sinkage: float, load: float, step: float) -> dict:
+def rigid_run(comm, per_d: float, sinkage: float, load: float, step: float, strain: str,
+              hexahedra: bool) -> dict:
     """The rigid cylinder pushed to ``sinkage`` (m) in steps of ``step`` (m): its curve."""
     t0 = time.perf_counter()
-    tagged = build_soil_block(comm, _block(), MeshOptions.from_refinement(D, per_d))
+    tagged = build_soil_block(comm, _block(), MeshOptions.from_refinement(D, per_d, hexahedra=hexahedra))
     wheel = CylinderWheel(D, 0.3 * D, 0.3 * D / 12)
-    ind = WheelIndentation(tagged, wheel, CLAY, gamma=GAMMA, friction=FRICTION, volumetric_strain="cell-average")
+    ind = WheelIndentation(tagged, wheel, CLAY, gamma=GAMMA, friction=FRICTION, volumetric_strain=strain)
     ind.gravity_step()
     curve = [(st.sinkage, st.QV) for st in ind.push(sinkage, StepControl(dt=step / sinkage, dt_max=step / sinkage))]
     at_load, at_sinkage = _interpolated(curve, load, sinkage)
-    return {"wheel": "rigid", "per_d": per_d, "dofs": ind.n_dofs, "sinkage_at_load": at_load,
+    return {"wheel": "rigid", "per_d": per_d, "hexahedra": hexahedra, "dofs": ind.n_dofs, "sinkage_at_load": at_load,
             "load_at_sinkage": at_sinkage, "curve": curve, "newton_iterations": ind.newton_iterations,
             "time_s": comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)}
 
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--levels", nargs="+", default=["6:0.15", "9:0.1", "12:0.075"],
+    p.add_argument("--levels", nargs="*", default=["6:0.15", "9:0.1", "12:0.075"],
                    help="tire-on-soil meshes: soil elements per d : carcass element size (m)")
-    p.add_argument("--rigid", type=float, nargs="+", default=[8.0, 12.0, 16.0], help="rigid wheel: elements per d")
+    p.add_argument("--rigid", type=float, nargs="*", default=[8.0, 12.0, 16.0], help="rigid wheel: elements per d")
+    p.add_argument("--rigid-hexahedra", action="store_true", help="the rigid wheel's block of hexahedra")
+    p.add_argument("--strain", choices=VOLUMETRIC_STRAINS, default="cell-average", help="volumetric strain")
     p.add_argument("--pressure", type=float, default=450.0, help="inflation, kPa")
     p.add_argument("--E", type=float, default=50.0, help="carcass Young's modulus, MPa")
     p.add_argument("--load", type=float, default=30.0, help="wheel load of the comparison, kN")
@@ -112,16 +117,17 @@ def main(argv=None) -> int:
          "|---|---|---|---|---|---|---|---|---|---|---|")
     for level in args.levels:
         per_d, size = (float(v) for v in level.split(":"))
-        r = tire_run(comm, per_d, size, 1e3 * args.pressure, 1e6 * args.E, args.sinkage, load, args.step * D)
+        r = tire_run(comm, per_d, size, 1e3 * args.pressure, 1e6 * args.E, args.sinkage, load, args.step * D,
+                     args.strain)
         rows.append(r)
         show(f"| pneumatic | {per_d:g}/d, carcass {1e3 * size:g} mm | {r['dofs']} | "
              f"{_fmt(r['load_at_sinkage'], '.2f', 1e-3)} | {_fmt(r['sinkage_at_load'], '.2f', 1e3)} | {1e3 * r['deflection_m']:.1f} | "
              f"{_fmt(r['equivalent_diameter_m'], '.2f', 1 / D)} | {_fmt(r['flexibility_m_per_N'], '.2e')} | "
              f"{_fmt(r['carcass_load_share'], '.2f')} | {r['newton_iterations']} | {r['time_s']:.0f} |")
     for per_d in args.rigid:
-        r = rigid_run(comm, per_d, args.sinkage, load, args.step * D)
+        r = rigid_run(comm, per_d, args.sinkage, load, args.step * D, args.strain, args.rigid_hexahedra)
         rows.append(r)
-        show(f"| rigid | {per_d:g}/d | {r['dofs']} | {_fmt(r['load_at_sinkage'], '.2f', 1e-3)} | "
+        show(f"| rigid | {per_d:g}/d{', hexahedra' if args.rigid_hexahedra else ''} | {r['dofs']} | {_fmt(r['load_at_sinkage'], '.2f', 1e-3)} | "
              f"{_fmt(r['sinkage_at_load'], '.2f', 1e3)} | | | | | "
              f"{r['newton_iterations']} | {r['time_s']:.0f} |")
     for key, what in (("sinkage_at_load", f"sinkage at {args.load:g} kN"),
