@@ -32,7 +32,7 @@ from .materials import NeoHookean
 from .problem import NewtonReport
 from .stepping import StepControl, StepRecord, solve_load_path
 
-__all__ = ["NeoHookean", "Carcass"]
+__all__ = ["NeoHookean", "Carcass", "current_area_vector"]
 
 log = get_logger("solver")
 
@@ -45,6 +45,12 @@ NEWTON_MAX_IT = 25
 #: quadrature degree of the contact-area integral: the points in contact are counted, so their
 #: spacing (about h / 7 on a quadratic facet at degree 12) sets the step of the area's jumps
 AREA_QUADRATURE_DEGREE = 12
+
+
+def current_area_vector(F, mesh):
+    """Current area vector per unit reference area of a boundary facet (UFL), ``J F^-T N``
+    (Nanson's formula): a follower pressure ``p`` pushes on the body with ``-p J F^-T N``."""
+    return ufl.det(F) * ufl.dot(ufl.inv(F).T, ufl.FacetNormal(mesh))
 
 
 class Carcass:
@@ -83,7 +89,7 @@ class Carcass:
                        for tag, mat in materials.items())
         self._surface = ds(tuple(names[name] for name in pressure_facets))
         # Nanson: the current area vector of a reference facet, da n = J F^-T N dA
-        area_vector = ufl.det(F) * ufl.dot(ufl.inv(F).T, ufl.FacetNormal(msh))
+        area_vector = current_area_vector(F, msh)
         #: force of the gas on the body per unit reference area: -p J F^-T N
         self._traction = -self.pressure * area_vector
         residual = internal - ufl.dot(self._traction, v) * self._surface

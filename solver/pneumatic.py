@@ -27,6 +27,7 @@ from petsc4py import PETSc
 from rollsim.geometry.tire import TIRE_CELL_TAGS
 from rollsim.log import get_logger
 
+from .carcass import current_area_vector
 from .contact_pair import FacetContact
 from .indentation import _NORMAL_COMPONENT, IndentationStep, StepCounts, symmetry_factor
 from .materials import NeoHookean
@@ -93,8 +94,8 @@ class PneumaticIndentation(StepCounts):
         self.pressure = fem.Constant(msh, PETSc.ScalarType(0.0))
         ds = ufl.Measure("ds", domain=msh, subdomain_data=tagged.facet_tags, metadata={"quadrature_degree": 4})
         F = ufl.Identity(3) + ufl.grad(pb.u)
-        area_vector = ufl.det(F) * ufl.dot(ufl.inv(F).T, ufl.FacetNormal(msh))     # J F^-T N (Nanson)
-        pb.add_residual_term(self.pressure * ufl.dot(area_vector, pb.test_function) * ds(names["inner_surface"]))
+        pb.add_residual_term(self.pressure * ufl.dot(current_area_vector(F, msh), pb.test_function)
+                             * ds(names["inner_surface"]))
         master = tuple(names[n] for n in ("top", "contact") if n in names)
         self.contact = FacetContact(pb, tagged.facet_tags, (names["outer_surface"],), master, penalty=penalty,
                                     friction=friction)
