@@ -62,14 +62,18 @@ def quadrature_degree_of(V) -> int | None:
     return element.degree() if element.family() == "Quadrature" else None
 
 
-def quadrature_points(mesh, degree: int) -> np.ndarray:
-    """Reference quadrature points of the default scheme used by ``quadrature_space``."""
+def quadrature_rule(mesh, degree: int) -> tuple[np.ndarray, np.ndarray]:
+    """Reference points and weights of the default scheme used by ``quadrature_space``."""
     import basix
     cell = {"triangle": basix.CellType.triangle, "tetrahedron": basix.CellType.tetrahedron,
             "quadrilateral": basix.CellType.quadrilateral,
             "hexahedron": basix.CellType.hexahedron}[mesh.topology.cell_name()]
-    points, _ = basix.make_quadrature(cell, degree)
-    return points
+    return basix.make_quadrature(cell, degree)
+
+
+def quadrature_points(mesh, degree: int) -> np.ndarray:
+    """Reference quadrature points of the default scheme used by ``quadrature_space``."""
+    return quadrature_rule(mesh, degree)[0]
 
 
 def expression(ufl_expr, points: np.ndarray):

@@ -36,8 +36,9 @@ def prandtl_nc(phi: float) -> float:
 
 def strip_footing_mesh(comm: MPI.Comm, B: float = 1.0, n: int = 8, width: float | None = None,
                        depth: float | None = None, grading: float = 1.5,
-                       diagonal: str = "crossed", interfaces=()):
-    """Structured triangle mesh of the half block, graded towards the footing edge (B/2, 0).
+                       diagonal: str = "crossed", interfaces=(), cell: str = "triangle"):
+    """Structured mesh of the half block, graded towards the footing edge (B/2, 0): triangles
+    (``diagonal`` as in ``create_rectangle``) or, with ``cell="quadrilateral"``, rectangles.
 
     ``n`` cells across the footing half-width; ``width``/``depth`` default to 2.5 B (block 5B x 2.5B).
     Grading: node spacing shrinks like a power ``grading`` towards x = B/2 and y = 0; the footing
@@ -57,8 +58,11 @@ def strip_footing_mesh(comm: MPI.Comm, B: float = 1.0, n: int = 8, width: float 
     nx = n1 + n2
     diag = {"crossed": dmesh.DiagonalType.crossed, "right": dmesh.DiagonalType.right,
             "left": dmesh.DiagonalType.left, "right/left": dmesh.DiagonalType.right_left}[diagonal]
+    cells = {"triangle": dmesh.CellType.triangle, "quadrilateral": dmesh.CellType.quadrilateral}
+    if cell not in cells:
+        raise ValueError(f"cell must be one of {sorted(cells)}, got {cell!r}")
     msh = dmesh.create_rectangle(comm, [np.array([0.0, 0.0]), np.array([float(nx), float(ny)])],
-                                 [nx, ny], dmesh.CellType.triangle, diagonal=diag)
+                                 [nx, ny], cells[cell], diagonal=diag)
     x = msh.geometry.x
     xi, eta = x[:, 0].copy(), x[:, 1].copy()       # xi in [0, nx], eta in [0, ny]
     left = xi <= n1

@@ -42,6 +42,7 @@ from petsc4py import PETSc
 from rollsim import compat
 from rollsim.log import get_logger
 
+from .cell_average import CellAverage
 from .materials import NeoHookean
 from .options import (DEFAULT_VOLUMETRIC_STRAIN, KINEMATICS, LINEAR_SOLVERS, PLATEAU_RTOL, VOLUMETRIC_STRAINS,
                       check_choice)
@@ -257,9 +258,10 @@ class PlasticityProblem:
     volumetric_strain : ``"cell-average"`` (B-bar): the volumetric part of every strain
         (trial, test and increment) is replaced by its cell average, so each cell carries one
         incompressibility constraint instead of one per quadrature point - P2 tetrahedra lock
-        under isochoric plastic flow otherwise (docs, "Volumetric locking"). Exact cell average
-        for P2 on affine cells (div u is linear there), a first-order Taylor value on curved cells
-        and in updated-Lagrangian steps. ``"pointwise"`` (default, :data:`DEFAULT_VOLUMETRIC_STRAIN`
+        under isochoric plastic flow otherwise (docs, "Volumetric locking").  On triangles and
+        tetrahedra a Taylor value about the midpoint: the exact mean for P2 on affine cells
+        (div u is linear there), a first-order value on curved cells and in updated-Lagrangian
+        steps; on quadrilaterals and hexahedra the exact cell mean (solver/cell_average.py). ``"pointwise"`` (default, :data:`DEFAULT_VOLUMETRIC_STRAIN`
         until the documented figures are re-measured with B-bar): the plain strain.
     """
 
@@ -337,7 +339,10 @@ class PlasticityProblem:
         else:
             F_inv, self._J_n = None, 1.0
         self.volumetric_strain = volumetric_strain
-        centroid = compat.cell_midpoints(mesh) if volumetric_strain == "cell-average" else None
+        # B-bar: a Taylor value about the midpoint on simplices (the exact mean for P2 on affine
+        # cells), exact cell means on quadrilaterals and hexahedra (solver/cell_average.py)
+        bbar = volumetric_strain == "cell-average"
+        centroid = compat.cell_midpoints(mesh) if bbar and simplex else None
         self._strain = lambda w: mandel_strain(w, self.gdim, F_inv, centroid)
         self._deps_expr = compat.expression(self._strain(self.u - self.u_n), self.points)
 
@@ -365,17 +370,25 @@ class PlasticityProblem:
         self.body_force = body_force if body_force is not None else zero
         Ct = ufl.as_matrix([[self.tangent[i * nc + j] for j in range(nc)] for i in range(nc)])
         eps = self._strain
-        soil = (ufl.inner(self.sigma, eps(v)) * self._J_n * dx_soil
+        # the initial (geostatic) stress varies inside a cell, so it is in equilibrium with the
+        # body force for the pointwise strain only: B-bar acts on the stress change
+        self._sigma0 = fem.Function(self.Qs, name="initial_stress") if bbar else None
+        self._cell_average, self._weights = None, None
+        stress = self.sigma
+        if bbar and not simplex:
+            self._cell_average = CellAverage(mesh, self.V, eps, Ct, self._J_n, dx_soil,
+                                             compat.quadrature_rule(mesh, self.qdeg), self.n_cells)
+            self._sigma_bar = stress = fem.Function(self.Qs, name="stress_cell_mean_trace")
+        soil = (ufl.inner(stress, eps(v)) * self._J_n * dx_soil
                 - self.gravity_factor * ufl.inner(self.body_force, v) * dx_soil)
-        self._sigma0 = None
-        if centroid is not None:
-            # the initial (geostatic) stress varies inside a cell, so it is in equilibrium with
-            # the body force for the pointwise strain only: B-bar acts on the stress change
-            # (residual + int sigma_0 : (eps(v) - eps_bar(v)), a constant vector)
-            self._sigma0 = fem.Function(self.Qs, name="initial_stress")
+        if centroid is not None:     # residual + int sigma_0 : (eps(v) - eps_bar(v)), a constant vector
             soil += ufl.inner(self._sigma0, mandel_strain(v, self.gdim, F_inv) - eps(v)) * self._J_n * dx_soil
         bodies = soil
-        jacobian = ufl.inner(ufl.dot(Ct, eps(du)), eps(v)) * self._J_n * dx_soil
+        if self._cell_average is not None:   # pointwise part; the cell couplings are added assembled
+            e = self._cell_average.deviatoric(eps)
+            jacobian = ufl.inner(ufl.dot(Ct, e(du)), e(v)) * self._J_n * dx_soil
+        else:
+            jacobian = ufl.inner(ufl.dot(Ct, eps(du)), eps(v)) * self._J_n * dx_soil
         if self.hyperelastic:
             F = ufl.Identity(self.gdim) + ufl.grad(self.u)
             hyper = sum(ufl.inner(mat.first_piola(F), ufl.grad(v)) * dx_body[tag]
@@ -507,6 +520,7 @@ class PlasticityProblem:
         self.sigma.x.array[:] = self.sigma_n.x.array
         if self._sigma0 is not None:
             self._sigma0.x.array[:] = self.sigma_n.x.array
+        self._refresh_stress_bar()
 
     def set_geostatic_stress(self, unit_weight: float, surface: float, K0=None):
         """Geostatic initial stress for a soil with unit weight ``gamma`` (N/m^3) and free surface at
@@ -565,6 +579,9 @@ class PlasticityProblem:
         compat.evaluate_into(self._deps_expr, self._deps_q)
         nc = self.ncomp
         sig_n, deps = self._owned(self.sigma_n, nc), self._owned(self._deps_q, nc)
+        if self._cell_average is not None:
+            self._weights = self._cell_average.point_weights()
+            deps[:] = self._cell_average.averaged(deps, self._weights)
         error = None
         try:
             res = self._return_map(sig_n, deps, tangent)
@@ -573,12 +590,25 @@ class PlasticityProblem:
         if self.comm.allreduce(error is not None, op=MPI.LOR):
             raise ReturnMapError(f"return map failed: {_first_line(error) if error else 'on another rank'}")
         self._set_owned(self.sigma, res.sigma)
+        self._refresh_stress_bar()
         if tangent:
             self._set_owned(self.tangent, res.tangent.reshape(self.n_qp, nc * nc))
         self._deps_p = res.deps_p
         self.state = res.state
         self.timings["return_map"] += time.perf_counter() - t0
         return res
+
+    def _refresh_stress_bar(self) -> None:
+        """With exact cell means: the residual's stress, the current stress with the cell mean
+        of its change's trace, ``sigma_0 + averaged(sigma - sigma_0)`` (solver/cell_average.py)."""
+        if self._cell_average is None:
+            return
+        if self._weights is None:
+            self._weights = self._cell_average.point_weights()
+        nc = self.ncomp
+        sig0 = self._owned(self._sigma0, nc)
+        self._set_owned(self._sigma_bar, sig0 + self._cell_average.averaged(self._owned(self.sigma, nc) - sig0,
+                                                                            self._weights))
 
     def _return_map(self, sig_n: np.ndarray, deps: np.ndarray, tangent: bool) -> ReturnResult:
         """The return map of every material group (and the Duvaut-Lions step when it is on)."""
@@ -677,6 +707,8 @@ class PlasticityProblem:
         if self._dirichlet_gap(x):
             compat.apply_lifting(b, [self._J_form], self.bcs, x, scale=-1.0)
             b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+            if self._cell_average is not None:
+                self._cell_average.apply_lifting(b, self.bcs, x)
         compat.set_bc(b, self.bcs, x, -1.0)
         self.timings["residual"] += time.perf_counter() - t0
 
@@ -699,6 +731,10 @@ class PlasticityProblem:
             self._load_x(x)
             self.constitutive_update(tangent=True)
             x.copy(self._x_last)
+        self._assemble_jacobian(A)
+        self.timings["jacobian"] += time.perf_counter() - t0
+
+    def _assemble_jacobian(self, A) -> None:
         A.zeroEntries()
         fpetsc.assemble_matrix(A, self._J_form, self.bcs)
         if self._assembled_terms:
@@ -706,7 +742,8 @@ class PlasticityProblem:
             for term in self._assembled_terms:
                 term.add_jacobian(A)
         A.assemble()
-        self.timings["jacobian"] += time.perf_counter() - t0
+        if self._cell_average is not None:
+            self._cell_average.add_jacobian(A, self.bcs)
 
     def _snes_converged(self, snes, it, norms):
         xnorm, gnorm, fnorm = norms
@@ -915,6 +952,7 @@ class PlasticityProblem:
         """Reject the current iterate: back to the last converged state."""
         self.u.x.array[:] = self.u_n.x.array
         self.sigma.x.array[:] = self.sigma_n.x.array
+        self._refresh_stress_bar()
         self.state = np.zeros(self.n_qp, dtype=np.int8)
         for hook in self._restore_hooks:
             hook()
@@ -958,6 +996,8 @@ class PlasticityProblem:
             self._A.zeroEntries()
             fpetsc.assemble_matrix(self._A, self._J_form, self.bcs)
             self._A.assemble()
+            if self._cell_average is not None:
+                self._cell_average.add_jacobian(self._A, self.bcs)
             ksp.setOperators(self._A)
             ksp.solve(b, y)
             if _:
