@@ -9,7 +9,9 @@ Cases (weightless, smooth rigid strip, half model 2.5B x 2.5B, P2 triangles, cro
   * associated Drucker-Prager matched to Mohr-Coulomb (plane strain), phi = 20, 30 deg: c N_c(phi)
   * P1 vs P2 (von Mises, n = 8): volumetric locking of P1 under isochoric flow
   * volumetric locking of P2: von Mises, n = 2, 4, 8, crossed and one-diagonal ("right") meshes, B-bar
-    (cell-average volumetric strain) against the pointwise strain (the default)
+    (cell-average volumetric strain) against the pointwise strain (the default); and on Q2
+    rectangles, B-bar projected per cell onto the linear functions (its default there) or the
+    constants, against the pointwise strain
   * c = 0, phi = 30 deg with self weight (N_gamma-type limit; reported, not verified)
 """
 from __future__ import annotations
@@ -34,10 +36,11 @@ DEG = math.pi / 180
 
 
 def run(comm, material, n, settlement, degree=2, unit_weight=0.0, K0=None, control=None,
-        volumetric_strain=DEFAULT_VOLUMETRIC_STRAIN, diagonal="crossed"):
+        volumetric_strain=DEFAULT_VOLUMETRIC_STRAIN, diagonal="crossed", cell="triangle", projection=None):
     t0 = time.perf_counter()
-    fo = StripFooting(strip_footing_mesh(comm, B, n, diagonal=diagonal), material, B, degree=degree,
-                      unit_weight=unit_weight, K0=K0, volumetric_strain=volumetric_strain)
+    fo = StripFooting(strip_footing_mesh(comm, B, n, diagonal=diagonal, cell=cell), material, B, degree=degree,
+                      unit_weight=unit_weight, K0=K0, volumetric_strain=volumetric_strain,
+                      volumetric_projection=projection)
     res = fo.run(settlement, control, time_elastic=True)
     wall = time.perf_counter() - t0
     return {"n": n, "degree": degree, "dofs": res.n_dofs, "cells": res.n_cells,
@@ -106,6 +109,15 @@ def main():
                     for v in VOLUMETRIC_STRAINS}
             locking.append({"diagonal": diagonal, "n": n, "error": errs})
             say(f"{diagonal:>8} {n:3d} {100 * errs['cell-average']:12.2f}% {100 * errs['pointwise']:9.2f}%")
+    say("Q2 rectangles: B-bar projected per cell onto linear functions (default) or constants, vs pointwise")
+    say(f"{'n':>3} {'linear':>8} {'constant':>9} {'pointwise':>10}")
+    for n in ns[:3]:
+        errs = {name: run(comm, vm, n, 0.1, volumetric_strain=v, cell="quadrilateral",
+                          projection=pr)["limit_pressure"] / exact - 1
+                for name, v, pr in (("linear", "cell-average", None), ("constant", "cell-average", 0),
+                                    ("pointwise", "pointwise", None))}
+        locking.append({"cell": "quadrilateral", "n": n, "error": errs})
+        say(f"{n:3d} {100 * errs['linear']:7.2f}% {100 * errs['constant']:8.2f}% {100 * errs['pointwise']:9.2f}%")
     out["cases"]["von_mises_locking"] = locking
 
     # associated Drucker-Prager, plane-strain match

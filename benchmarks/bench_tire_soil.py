@@ -2,7 +2,9 @@
 
     python benchmarks/bench_tire_soil.py --out benchmarks/results/tire_soil.json
     python benchmarks/bench_tire_soil.py --levels 6:0.15 9:0.1 --rigid 8 12
-    python benchmarks/bench_tire_soil.py --levels --rigid 9 12 --rigid-hexahedra --strain pointwise
+    python benchmarks/bench_tire_soil.py --levels --rigid 9 12 16 --rigid-hexahedra \
+        --out benchmarks/results/rigid_hexahedra.json
+    python benchmarks/bench_tire_soil.py --levels --rigid 9 12 16 --rigid-hexahedra --projection 0
 
 A tire of the Mn/DOT roller's size (d = 1.524 m, b = 0.3 d, hub 0.5 d, shoulder radius 0.08 d,
 carcass E = ``--E`` MPa, nu = 0.45, inflated to ``--pressure`` kPa) and a rigid cylinder of the
@@ -10,7 +12,9 @@ same diameter and width (fillet b/12) are pressed into the same clay (von Mises,
 E = 20 MPa, nu = 0.3, gamma = 18 kN/m^3, mu = 0.5, ``--strain``), quarter models on a block of
 1 d each side and 1 d deep.  Each ``--levels`` entry ``n:h`` meshes the tire-on-soil model with
 ``n`` soil elements per d (hexahedra) and carcass elements of ``h`` m; each ``--rigid`` entry the
-rigid wheel's block with that many elements per d (tetrahedra, or ``--rigid-hexahedra``).  Both are pressed in steps of
+rigid wheel's block with that many elements per d (tetrahedra, or ``--rigid-hexahedra``; on
+hexahedra B-bar projects per cell onto the linear functions, or onto the constants with
+``--projection 0``).  Both are pressed in steps of
 about ``--step`` d of sinkage to ``--sinkage`` m.  Prints, per run, the wheel load at that
 sinkage and the sinkage at the wheel load ``--load`` kN (both interpolated linearly in the
 force-sinkage curve), and for the tire its deflection, equivalent diameter, flexibility and
@@ -76,16 +80,18 @@ def tire_run(comm, per_d: float, size: float, pressure: float, young: float, sin
 
 
 def rigid_run(comm, per_d: float, sinkage: float, load: float, step: float, strain: str,
-              hexahedra: bool) -> dict:
+              hexahedra: bool, projection: int | None = None) -> dict:
     """The rigid cylinder pushed to ``sinkage`` (m) in steps of ``step`` (m): its curve."""
     t0 = time.perf_counter()
     tagged = build_soil_block(comm, _block(), MeshOptions.from_refinement(D, per_d, hexahedra=hexahedra))
     wheel = CylinderWheel(D, 0.3 * D, 0.3 * D / 12)
-    ind = WheelIndentation(tagged, wheel, CLAY, gamma=GAMMA, friction=FRICTION, volumetric_strain=strain)
+    ind = WheelIndentation(tagged, wheel, CLAY, gamma=GAMMA, friction=FRICTION, volumetric_strain=strain,
+                           volumetric_projection=projection)
     ind.gravity_step()
     curve = [(st.sinkage, st.QV) for st in ind.push(sinkage, StepControl(dt=step / sinkage, dt_max=step / sinkage))]
     at_load, at_sinkage = _interpolated(curve, load, sinkage)
-    return {"wheel": "rigid", "per_d": per_d, "hexahedra": hexahedra, "dofs": ind.n_dofs, "sinkage_at_load": at_load,
+    return {"wheel": "rigid", "per_d": per_d, "hexahedra": hexahedra, "projection": projection, "dofs": ind.n_dofs,
+            "sinkage_at_load": at_load,
             "load_at_sinkage": at_sinkage, "curve": curve, "newton_iterations": ind.newton_iterations,
             "time_s": comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)}
 
@@ -97,6 +103,8 @@ def main(argv=None) -> int:
     p.add_argument("--rigid", type=float, nargs="*", default=[8.0, 12.0, 16.0], help="rigid wheel: elements per d")
     p.add_argument("--rigid-hexahedra", action="store_true", help="the rigid wheel's block of hexahedra")
     p.add_argument("--strain", choices=VOLUMETRIC_STRAINS, default="cell-average", help="volumetric strain")
+    p.add_argument("--projection", type=int, choices=(0, 1),
+                   help="B-bar on the rigid wheel's hexahedra: per cell onto constants (0) or linear functions (1)")
     p.add_argument("--pressure", type=float, default=450.0, help="inflation, kPa")
     p.add_argument("--E", type=float, default=50.0, help="carcass Young's modulus, MPa")
     p.add_argument("--load", type=float, default=30.0, help="wheel load of the comparison, kN")
@@ -125,9 +133,12 @@ def main(argv=None) -> int:
              f"{_fmt(r['equivalent_diameter_m'], '.2f', 1 / D)} | {_fmt(r['flexibility_m_per_N'], '.2e')} | "
              f"{_fmt(r['carcass_load_share'], '.2f')} | {r['newton_iterations']} | {r['time_s']:.0f} |")
     for per_d in args.rigid:
-        r = rigid_run(comm, per_d, args.sinkage, load, args.step * D, args.strain, args.rigid_hexahedra)
+        r = rigid_run(comm, per_d, args.sinkage, load, args.step * D, args.strain, args.rigid_hexahedra,
+                      args.projection)
         rows.append(r)
-        show(f"| rigid | {per_d:g}/d{', hexahedra' if args.rigid_hexahedra else ''} | {r['dofs']} | {_fmt(r['load_at_sinkage'], '.2f', 1e-3)} | "
+        mesh = f"{per_d:g}/d" + (", hexahedra" if args.rigid_hexahedra else "") + (
+            f", projection {args.projection}" if args.projection is not None else "")
+        show(f"| rigid | {mesh} | {r['dofs']} | {_fmt(r['load_at_sinkage'], '.2f', 1e-3)} | "
              f"{_fmt(r['sinkage_at_load'], '.2f', 1e3)} | | | | | "
              f"{r['newton_iterations']} | {r['time_s']:.0f} |")
     for key, what in (("sinkage_at_load", f"sinkage at {args.load:g} kN"),

@@ -129,11 +129,13 @@ class StripFooting:
     With ``unit_weight`` > 0 a geostatic initial stress with coefficient ``K0`` is set (default
     ``nu/(1-nu)``); a K0 that violates the yield condition is moved inside the yield surface with a
     warning (:meth:`PlasticityProblem.set_geostatic_stress`); the value used is ``self.K0``.
+    ``volumetric_strain``, ``volumetric_projection``: as for :class:`PlasticityProblem`.
     """
 
     def __init__(self, msh, material, B: float = 1.0, *, degree: int = 2, unit_weight: float = 0.0,
                  K0: float | None = None, petsc_options: dict | None = None, interfaces=None, cell_tags=None,
-                 kinematics: str = "small-strain", volumetric_strain: str = DEFAULT_VOLUMETRIC_STRAIN):
+                 kinematics: str = "small-strain", volumetric_strain: str = DEFAULT_VOLUMETRIC_STRAIN,
+                 volumetric_projection: int | None = None):
         self.mesh, self.B = msh, B
         comm = msh.comm
         fdim = msh.topology.dim - 1
@@ -153,7 +155,8 @@ class StripFooting:
         body = ufl.as_vector([0.0, -gamma]) if gamma else None
         self.problem = pb = PlasticityProblem(msh, material, degree=degree, body_force=body,
                                               petsc_options=petsc_options, cell_tags=cell_tags,
-                                              kinematics=kinematics, volumetric_strain=volumetric_strain)
+                                              kinematics=kinematics, volumetric_strain=volumetric_strain,
+                                              volumetric_projection=volumetric_projection)
         V = pb.V
         self.footing_facets = dmesh.locate_entities_boundary(
             msh, fdim, lambda x: (np.abs(x[1]) < tol) & (x[0] <= B / 2 + tol))

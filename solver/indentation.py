@@ -138,7 +138,8 @@ class WheelIndentation(StepCounts):
     ``plateau_rtol``: Newton plateaus accepted below this fraction of the internal-force norm
     (default :data:`~rollsim.solver.options.PLATEAU_RTOL`; 0: never); ``relaxation_fallback`` (m,
     0: off): the relaxation length :meth:`push` falls back to over a stretch of sinkage when
-    Newton fails on the unregularised soil.
+    Newton fails on the unregularised soil.  ``volumetric_projection``: as for
+    :class:`~rollsim.solver.problem.PlasticityProblem` (hexahedral blocks).
     """
 
     def __init__(self, tagged, wheel, material, *, gamma: float = 0.0, K0: float | None = None,
@@ -147,7 +148,7 @@ class WheelIndentation(StepCounts):
                  quadrature_degree: int = 6, smoothing: float = 0.0, kinematics: str = "small-strain",
                  linear_solver: str = "auto", volumetric_strain: str = DEFAULT_VOLUMETRIC_STRAIN,
                  relaxation_length: float = 0.0, plateau_rtol: float | None = None,
-                 relaxation_fallback: float = 0.0):
+                 relaxation_fallback: float = 0.0, volumetric_projection: int | None = None):
         self.relaxation_length = check_relaxation_length(relaxation_length)
         self.relaxation_fallback = check_relaxation_length(relaxation_fallback)
         #: sinkage over which a fallback relaxation acts after a failure, m
@@ -167,7 +168,8 @@ class WheelIndentation(StepCounts):
                                               petsc_options={**DEFAULT_PETSC_OPTIONS, **(petsc_options or {})},
                                               cell_tags=tagged.cell_tags if isinstance(material, dict) else None,
                                               kinematics=kinematics, linear_solver=linear_solver,
-                                              volumetric_strain=volumetric_strain, plateau_rtol=plateau_rtol)
+                                              volumetric_strain=volumetric_strain, plateau_rtol=plateau_rtol,
+                                              volumetric_projection=volumetric_projection)
         V = pb.V
         fdim = msh.topology.dim - 1
         bcs = []

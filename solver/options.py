@@ -22,7 +22,8 @@ DEFAULT_KINEMATICS = "small-strain"
 LINEAR_SOLVERS = ("auto", "direct", "iterative")
 DEFAULT_LINEAR_SOLVER = "auto"
 #: volumetric strain of the soil (``PlasticityProblem(volumetric_strain=...)``): "cell-average" =
-#: B-bar (one volumetric constraint per cell: no locking under isochoric plastic flow),
+#: B-bar (the volumetric strain projected per cell - its mean on simplices, a linear function on
+#: hexahedra: a few constraints per cell, no locking under isochoric plastic flow),
 #: "pointwise" = plain strain at every quadrature point.  The solver classes default to
 #: :data:`DEFAULT_VOLUMETRIC_STRAIN`; scenes default per protocol and preset
 #: (:func:`default_volumetric_strain`).

@@ -42,7 +42,7 @@ from petsc4py import PETSc
 from rollsim import compat
 from rollsim.log import get_logger
 
-from .cell_average import CellAverage
+from .cell_average import CellProjection
 from .materials import NeoHookean
 from .options import (DEFAULT_VOLUMETRIC_STRAIN, KINEMATICS, LINEAR_SOLVERS, PLATEAU_RTOL, VOLUMETRIC_STRAINS,
                       check_choice)
@@ -256,12 +256,15 @@ class PlasticityProblem:
         a few degrees), and the body force is per unit of initial volume (mass is conserved).
         The configuration is frozen within a step, so the Newton tangent stays consistent.
     volumetric_strain : ``"cell-average"`` (B-bar): the volumetric part of every strain
-        (trial, test and increment) is replaced by its cell average, so each cell carries one
-        incompressibility constraint instead of one per quadrature point - P2 tetrahedra lock
-        under isochoric plastic flow otherwise (docs, "Volumetric locking").  On triangles and
-        tetrahedra a Taylor value about the midpoint: the exact mean for P2 on affine cells
-        (div u is linear there), a first-order value on curved cells and in updated-Lagrangian
-        steps; on quadrilaterals and hexahedra the exact cell mean (solver/cell_average.py). ``"pointwise"`` (default, :data:`DEFAULT_VOLUMETRIC_STRAIN`
+        (trial, test and increment) is replaced by its projection per cell, so each cell carries
+        a few incompressibility constraints instead of one per quadrature point - P2 tetrahedra
+        lock under isochoric plastic flow otherwise (docs, "Volumetric locking").  On triangles
+        and tetrahedra the cell mean, by a Taylor value about the midpoint: exact for P2 on
+        affine cells (div u is linear there), first-order on curved cells and in
+        updated-Lagrangian steps.  On quadrilaterals and hexahedra the exact projection onto the
+        linear functions of the cell (Q2-P1, the optimal pairing), or onto the constants with
+        ``volumetric_projection=0`` (Q2-P0, the cell mean: converges from below and more slowly)
+        - solver/cell_average.py.  ``"pointwise"`` (default, :data:`DEFAULT_VOLUMETRIC_STRAIN`
         until the documented figures are re-measured with B-bar): the plain strain.
     """
 
@@ -270,7 +273,7 @@ class PlasticityProblem:
                  petsc_options: dict | None = None, options_prefix: str = "rollsim_plasticity_",
                  force_rtol: float = 1e-10, plateau_rtol: float | None = None, cell_tags=None,
                  kinematics: str = "small-strain", linear_solver: str = "auto",
-                 volumetric_strain: str = DEFAULT_VOLUMETRIC_STRAIN):
+                 volumetric_strain: str = DEFAULT_VOLUMETRIC_STRAIN, volumetric_projection: int | None = None):
         check_choice("kinematics", kinematics, KINEMATICS)
         check_choice("linear_solver", linear_solver, LINEAR_SOLVERS)
         check_choice("volumetric_strain", volumetric_strain, VOLUMETRIC_STRAINS)
@@ -299,6 +302,9 @@ class PlasticityProblem:
         self.ncomp = 4 if self.gdim == 2 else 6
         self.degree = degree
         simplex = compat.cell_name(mesh) in ("triangle", "tetrahedron")
+        if volumetric_projection is not None and (simplex or volumetric_strain != "cell-average"):
+            raise ValueError("volumetric_projection applies to volumetric_strain='cell-average' on quadrilaterals "
+                             "and hexahedra only")
         self.qdeg = (quadrature_degree if quadrature_degree is not None
                      else max(2 * (degree - 1), 1) if simplex else 2 * degree)
         self.V = compat.vector_space(mesh, degree)
@@ -340,7 +346,7 @@ class PlasticityProblem:
             F_inv, self._J_n = None, 1.0
         self.volumetric_strain = volumetric_strain
         # B-bar: a Taylor value about the midpoint on simplices (the exact mean for P2 on affine
-        # cells), exact cell means on quadrilaterals and hexahedra (solver/cell_average.py)
+        # cells), an exact projection per cell on quadrilaterals and hexahedra (solver/cell_average.py)
         bbar = volumetric_strain == "cell-average"
         centroid = compat.cell_midpoints(mesh) if bbar and simplex else None
         self._strain = lambda w: mandel_strain(w, self.gdim, F_inv, centroid)
@@ -373,11 +379,12 @@ class PlasticityProblem:
         # the initial (geostatic) stress varies inside a cell, so it is in equilibrium with the
         # body force for the pointwise strain only: B-bar acts on the stress change
         self._sigma0 = fem.Function(self.Qs, name="initial_stress") if bbar else None
-        self._cell_average, self._weights = None, None
+        self._cell_average = None
         stress = self.sigma
         if bbar and not simplex:
-            self._cell_average = CellAverage(mesh, self.V, eps, Ct, self._J_n, dx_soil,
-                                             compat.quadrature_rule(mesh, self.qdeg), self.n_cells)
+            self._cell_average = CellProjection(mesh, self.V, eps, Ct, self._J_n, dx_soil,
+                                                compat.quadrature_rule(mesh, self.qdeg), self.n_cells,
+                                                degree=1 if volumetric_projection is None else volumetric_projection)
             self._sigma_bar = stress = fem.Function(self.Qs, name="stress_cell_mean_trace")
         soil = (ufl.inner(stress, eps(v)) * self._J_n * dx_soil
                 - self.gravity_factor * ufl.inner(self.body_force, v) * dx_soil)
@@ -580,8 +587,8 @@ class PlasticityProblem:
         nc = self.ncomp
         sig_n, deps = self._owned(self.sigma_n, nc), self._owned(self._deps_q, nc)
         if self._cell_average is not None:
-            self._weights = self._cell_average.point_weights()
-            deps[:] = self._cell_average.averaged(deps, self._weights)
+            self._cell_average.refresh()
+            deps[:] = self._cell_average.projected(deps)
         error = None
         try:
             res = self._return_map(sig_n, deps, tangent)
@@ -603,12 +610,9 @@ class PlasticityProblem:
         of its change's trace, ``sigma_0 + averaged(sigma - sigma_0)`` (solver/cell_average.py)."""
         if self._cell_average is None:
             return
-        if self._weights is None:
-            self._weights = self._cell_average.point_weights()
         nc = self.ncomp
         sig0 = self._owned(self._sigma0, nc)
-        self._set_owned(self._sigma_bar, sig0 + self._cell_average.averaged(self._owned(self.sigma, nc) - sig0,
-                                                                            self._weights))
+        self._set_owned(self._sigma_bar, sig0 + self._cell_average.projected(self._owned(self.sigma, nc) - sig0))
 
     def _return_map(self, sig_n: np.ndarray, deps: np.ndarray, tangent: bool) -> ReturnResult:
         """The return map of every material group (and the Duvaut-Lions step when it is on)."""
@@ -708,7 +712,7 @@ class PlasticityProblem:
             compat.apply_lifting(b, [self._J_form], self.bcs, x, scale=-1.0)
             b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
             if self._cell_average is not None:
-                self._cell_average.apply_lifting(b, self.bcs, x)
+                self._cell_average.apply_lifting(b, self.bcs, x, self._owned(self.tangent, self.ncomp ** 2))
         compat.set_bc(b, self.bcs, x, -1.0)
         self.timings["residual"] += time.perf_counter() - t0
 
@@ -743,7 +747,7 @@ class PlasticityProblem:
                 term.add_jacobian(A)
         A.assemble()
         if self._cell_average is not None:
-            self._cell_average.add_jacobian(A, self.bcs)
+            self._cell_average.add_jacobian(A, self.bcs, self._owned(self.tangent, self.ncomp ** 2))
 
     def _snes_converged(self, snes, it, norms):
         xnorm, gnorm, fnorm = norms
@@ -997,7 +1001,7 @@ class PlasticityProblem:
             fpetsc.assemble_matrix(self._A, self._J_form, self.bcs)
             self._A.assemble()
             if self._cell_average is not None:
-                self._cell_average.add_jacobian(self._A, self.bcs)
+                self._cell_average.add_jacobian(self._A, self.bcs, self._owned(self.tangent, self.ncomp ** 2))
             ksp.setOperators(self._A)
             ksp.solve(b, y)
             if _:
