@@ -35,9 +35,10 @@ def model_to_mesh(model, comm: MPI.Comm, rank: int, gdim: int):
     return gmshio.model_to_mesh(model, comm, rank, gdim=gdim)
 
 
-def vector_space(mesh, degree: int, family: str = "Lagrange"):
-    """Vector-valued continuous Lagrange space (one component per geometric dimension)."""
-    return fem.VectorFunctionSpace(mesh, (family, degree))
+def vector_space(mesh, degree: int, family: str = "Lagrange", dim: int | None = None):
+    """Vector-valued space of ``family`` (continuous Lagrange by default), with one component per
+    geometric dimension or ``dim``."""
+    return fem.VectorFunctionSpace(mesh, (family, degree), dim=dim)
 
 
 def scalar_space(mesh, degree: int, family: str = "Lagrange"):
@@ -125,6 +126,11 @@ def interpolation_points(V) -> np.ndarray:
     """Reference interpolation points of the element of ``V`` (a method in 0.5, a property later)."""
     pts = V.element.interpolation_points
     return pts() if callable(pts) else pts
+
+
+def geometry_degree(mesh) -> int:
+    """Degree of the mesh's coordinate element (``geometry.cmap.degree`` in 0.5, ``cmaps`` later)."""
+    return mesh.geometry.cmap.degree
 
 
 def cell_name(mesh) -> str:

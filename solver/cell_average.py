@@ -70,7 +70,7 @@ class CellProjection:
         self._mesh, self._ref_weights = mesh, weights
         self.weights = self._Minv = None
         m = mandel_identity(self.ncomp)
-        R = fem.VectorFunctionSpace(mesh, ("DG", 0), dim=self.k)
+        R = compat.vector_space(mesh, 0, "DG", dim=self.k)
         r, w = ufl.TestFunction(R), ufl.TrialFunction(V)
         rt, v = ufl.TrialFunction(R), ufl.TestFunction(V)
         e = self.deviatoric(strain)
@@ -161,7 +161,7 @@ class CellProjection:
         self._coupling = self.coupling(bcs, tangent, self._coupling)
         A.axpy(1.0, self._coupling, structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
 
-    def apply_lifting(self, b: PETSc.Vec, bcs, x: PETSc.Vec, tangent: np.ndarray) -> None:
+    def lift_residual(self, b: PETSc.Vec, bcs, x: PETSc.Vec, tangent: np.ndarray) -> None:
         """``b += C (g - x)`` on the owned entries, with ``C`` the couplings and ``g - x`` the
         Dirichlet values missed by ``x`` (zero off the constrained dofs): the part of the
         residual's lifting the assembled forms do not hold.  Without it, the first Newton

@@ -712,7 +712,7 @@ class PlasticityProblem:
             compat.apply_lifting(b, [self._J_form], self.bcs, x, scale=-1.0)
             b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
             if self._cell_average is not None:
-                self._cell_average.apply_lifting(b, self.bcs, x, self._owned(self.tangent, self.ncomp ** 2))
+                self._cell_average.lift_residual(b, self.bcs, x, self._owned(self.tangent, self.ncomp ** 2))
         compat.set_bc(b, self.bcs, x, -1.0)
         self.timings["residual"] += time.perf_counter() - t0
 
