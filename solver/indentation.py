@@ -45,7 +45,7 @@ from .contact import RigidWheelContact
 from .options import DEFAULT_VOLUMETRIC_STRAIN, check_relaxation_length
 from .problem import PlasticityProblem
 from .stepping import (RelaxationFallback, RunInterrupted, SolverDivergedError, StepControl, advance_with_fallback,
-                       solve_load_path, straight_path)
+                       settle_under_gravity, solve_load_path, straight_path)
 
 __all__ = ["WheelIndentation", "IndentationStep", "LoadControlResult", "symmetry_factor",
            "DEFAULT_STEP_CONTROL", "DEFAULT_PETSC_OPTIONS"]
@@ -307,19 +307,9 @@ class WheelIndentation(StepCounts):
         """Geostatic stress + body force, one equilibrium solve with the wheel held clear of the
         soil, displacement zeroed; then the wheel is placed at s = 0 (touching the surface at one
         point, at ``x_centre``) and the pose committed.  Without unit weight only the pose."""
-        pb = self.problem
         if self.gamma:
-            pb.set_geostatic_stress(self.gamma, surface=0.0, K0=self.K0)
             self.set_sinkage(-1e-3 * self.radius)
-            rep = pb.solve_increment()
-            if not rep.converged:
-                pb.restore()
-                raise SolverDivergedError("gravity step did not converge", None, [])
-            pb.commit()
-            umax = self.comm.allreduce(float(np.abs(pb.u.x.array).max(initial=0.0)), op=MPI.MAX)
-            log.info("gravity step: %d Newton iterations, max |u| = %.3g m (geostatic stress in equilibrium)",
-                     rep.iterations, umax)
-            pb.reset_displacement()
+            settle_under_gravity(self.problem, self.gamma, self.K0)
         self.set_sinkage(0.0)
         self.contact.commit()
 

@@ -32,7 +32,7 @@ from .contact_pair import FacetContact
 from .indentation import _NORMAL_COMPONENT, IndentationStep, StepCounts, symmetry_factor
 from .materials import NeoHookean
 from .problem import PlasticityProblem
-from .stepping import SolverDivergedError, StepControl, StepRecord, solve_load_path
+from .stepping import StepControl, StepRecord, settle_under_gravity, solve_load_path
 
 __all__ = ["PneumaticIndentation", "TIRE_PENALTY"]
 
@@ -186,16 +186,8 @@ class PneumaticIndentation(StepCounts):
     def gravity_step(self) -> None:
         """Geostatic stress of the soil in equilibrium with its weight (the tire clear of it and
         held at the hub); displacements zeroed.  Nothing without unit weight."""
-        pb = self.problem
-        if not self.gamma:
-            return
-        pb.set_geostatic_stress(self.gamma, surface=0.0, K0=self.K0)
-        rep = pb.solve_increment()
-        if not rep.converged:
-            pb.restore()
-            raise SolverDivergedError("gravity step did not converge", None, [])
-        pb.commit()
-        pb.reset_displacement()
+        if self.gamma:
+            settle_under_gravity(self.problem, self.gamma, self.K0)
 
     def inflate(self, pressure: float, control: StepControl | None = None) -> list[StepRecord]:
         """Ramp the inflation pressure from its current value to ``pressure`` (Pa), the hub held."""

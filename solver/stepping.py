@@ -37,7 +37,8 @@ import numpy as np
 from rollsim.log import get_logger
 
 __all__ = ["StepControl", "StepRecord", "ConvergedState", "SolverDivergedError", "RunInterrupted",
-           "RelaxationFallback", "solve_load_path", "advance_with_fallback", "straight_path", "stop_on_signals"]
+           "RelaxationFallback", "solve_load_path", "advance_with_fallback", "straight_path", "stop_on_signals",
+           "settle_under_gravity"]
 
 log = get_logger("solver")
 
@@ -182,6 +183,23 @@ def _interrupt_signal(comm) -> str | None:
     if comm is not None:
         code = comm.allreduce(code, op=_mpi_max())
     return signal.Signals(code).name if code else None
+
+
+def settle_under_gravity(problem, unit_weight: float, K0=None) -> None:
+    """The gravity step of a soil with free surface at height 0: geostatic stress
+    (:meth:`~rollsim.solver.problem.PlasticityProblem.set_geostatic_stress`), one equilibrium solve
+    with the body force, commit, displacement zeroed (stresses and plastic strains kept).  Raises
+    :class:`SolverDivergedError` (state restored) when Newton fails."""
+    problem.set_geostatic_stress(unit_weight, surface=0.0, K0=K0)
+    rep = problem.solve_increment()
+    if not rep.converged:
+        problem.restore()
+        raise SolverDivergedError("gravity step did not converge", None, [])
+    problem.commit()
+    umax = problem.comm.allreduce(float(np.abs(problem.u.x.array).max(initial=0.0)), op=_mpi_max())
+    log.info("gravity step: %d Newton iterations, max |u| = %.3g m (geostatic stress in equilibrium)",
+             rep.iterations, umax)
+    problem.reset_displacement()
 
 
 def solve_load_path(problem, set_load: Callable[[float], None], control: StepControl = StepControl(),
