@@ -1,4 +1,5 @@
-"""Output fields for ParaView / pyvista: displacement (P1), equivalent plastic strain and
+"""Output fields for ParaView / pyvista: displacement (of the mesh's geometry degree: P1, or Q2 on
+the curved hexahedra of a tire on soil), equivalent plastic strain and
 generalised shear stress q (cell averages, DG0), written as XDMF time series.
 
 ``fields.xdmf``: undeformed mesh + ``displacement`` (use *Warp By Vector* in ParaView or
@@ -51,7 +52,7 @@ class FieldWriter:
         if self.comm.rank == 0:
             self.dir.mkdir(parents=True, exist_ok=True)
         self.comm.barrier()
-        self.V1 = compat.vector_space(msh, 1)
+        self.V1 = compat.vector_space(msh, compat.geometry_degree(msh))   # a node per geometry node
         self.W0 = compat.scalar_space(msh, 0, "DG")
         self.u1 = fem.Function(self.V1, name="displacement")
         self.epeq = fem.Function(self.W0, name="equivalent_plastic_strain")

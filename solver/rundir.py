@@ -103,6 +103,37 @@ def plot_force_sinkage(path: pathlib.Path, rows, scene, status: str) -> None:
     _save(fig, path)
 
 
+def write_contact_pressure(out: pathlib.Path, points, areas, pressures, inflation: float, sinkage: float) -> None:
+    """``contact_pressure.csv`` (current x, y, z in m, pressure in Pa and tributary area in m² of
+    every point of the modelled part of the tire's surface in contact, x along the travel,
+    y across; pressure times area sums to the normal contact force) and ``contact_pressure.png``
+    (pressure against x, coloured by y, with the inflation pressure); ``points``, ``areas``,
+    ``pressures``: the ranks' arrays.  Rank 0 only; a failing plot is logged."""
+    pts = np.concatenate([np.reshape(p, (-1, 3)) for p in points])
+    a = np.concatenate([np.ravel(w) for w in areas])
+    p = np.concatenate([np.ravel(q) for q in pressures])
+    order = np.lexsort((pts[:, 1], pts[:, 0]))
+    pts, a, p = pts[order], a[order], p[order]
+    lines = ["x_m,y_m,z_m,pressure_Pa,area_m2"] + [f"{x:.6g},{y:.6g},{z:.6g},{q:.6g},{w:.6g}"
+                                                   for (x, y, z), q, w in zip(pts, p, a)]
+    atomic_write_text(out / "contact_pressure.csv", "\n".join(lines) + "\n")
+    try:
+        plt = _pyplot()
+        fig, ax = plt.subplots(figsize=(6, 4.2))
+        sc = ax.scatter(pts[:, 0], p / 1e3, c=pts[:, 1], s=12, cmap="viridis")
+        fig.colorbar(sc, ax=ax, label="y, across the tire (m)")
+        ax.axhline(inflation / 1e3, color="k", ls="--", lw=1, label=f"inflation {inflation / 1e3:g} kPa")
+        ax.set_xlabel("x, along the travel from the axle (m)")
+        ax.set_ylabel("contact pressure (kPa)")
+        ax.set_title(f"contact pressure under the tire at s = {sinkage:.4f} m", fontsize=10)
+        ax.grid(alpha=0.3)
+        ax.legend(loc="upper right")
+        fig.tight_layout()
+        _save(fig, out / "contact_pressure.png")
+    except Exception as err:  # noqa: BLE001 - a plot must not lose the run
+        log.warning("contact pressure plot failed: %s", err)
+
+
 def plot_travel(path: pathlib.Path, rows, scene, summary: dict, rut_csv: pathlib.Path) -> None:
     """Sinkage and Q_H against travel (and the rut profile for the constant-load protocol)."""
     plt = _pyplot()

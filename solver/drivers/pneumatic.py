@@ -1,7 +1,9 @@
 """Driver of ``protocol = "indentation"`` with ``[wheel] type = "pneumatic"``: the tire inflated
 clear of the soil, lowered until it touches, then pressed by its hub until the sinkage (its lowest
 point below the undisturbed surface) reaches ``loading.max_sinkage``; quarter model, one mesh of
-hexahedra for tire and soil (``rollsim.solver.pneumatic``)."""
+hexahedra for tire and soil (``rollsim.solver.pneumatic``).  Besides the common run files:
+the fields of tire and soil, ``plastic_zone.png`` (the deformed tire on the soil) and the contact
+pressure under the tire at the end (``contact_pressure.csv`` and ``.png``)."""
 from __future__ import annotations
 
 from mpi4py import MPI
@@ -10,6 +12,7 @@ from rollsim.log import get_logger
 
 from ..materials import NeoHookean
 from ..pneumatic import TIRE_PENALTY, PneumaticIndentation
+from ..rundir import write_contact_pressure
 from ..scene_model import pneumatic_mesh
 from .base import REPORT_S_OVER_D, ProtocolRun
 
@@ -25,12 +28,9 @@ def run_pneumatic_indentation(scene, out_dir, comm: MPI.Comm, *, progress: bool 
                               petsc_options: dict | None = None, write_fields: bool = True,
                               penalty: float | None = None) -> dict:
     """Pneumatic indentation of ``scene`` on ``comm``; writes the run directory ``out_dir`` and
-    returns the summary (with a ``tire`` object: :meth:`PneumaticIndentation.tire_state`).  Fields
-    are not written for the tire yet (``write_fields`` is ignored, with a note in the log)."""
-    run = ProtocolRun(scene, out_dir, comm, progress=progress, write_fields=False, petsc_options=petsc_options,
-                      penalty=penalty)
-    if write_fields and progress and run.root:
-        log.info("pneumatic tire: the field files are not written for the tire yet")
+    returns the summary (with a ``tire`` object: :meth:`PneumaticIndentation.tire_state`)."""
+    run = ProtocolRun(scene, out_dir, comm, progress=progress, write_fields=write_fields,
+                      petsc_options=petsc_options, penalty=penalty)
     d, s_max, w = run.d, scene.loading.max_sinkage, scene.wheel
     tagged, tire = pneumatic_mesh(scene, comm)
     options = run.solver_options
@@ -51,5 +51,13 @@ def run_pneumatic_indentation(scene, out_dir, comm: MPI.Comm, *, progress: bool 
 
     status, reason, diagnostics = run.execute(
         indentation, lambda: {"last_converged_sinkage_m": -pn.lowest_point(), "step_cuts_total": pn.cuts})
-    summary = run.summary(status, reason, tire=pn.tire_state())
+    tire_state = pn.tire_state()
+    run.close_fields(lambda writer: writer.render_plastic_zone(
+        run.out / "plastic_zone.png", f"tire on soil: equivalent plastic strain at s = {tire_state['sinkage_m']:.4f} m"))
+    gathered = comm.gather(pn.contact.contact_points(), root=0)       # (points, areas, pressures) per rank
+    if run.root:
+        write_contact_pressure(run.out, *zip(*gathered), w.inflation, tire_state["sinkage_m"])
+    summary = run.summary(status, reason, tire=tire_state)
+    summary["files"].update({"plastic_zone": "plastic_zone.png" if write_fields else None,
+                             "contact_pressure": ["contact_pressure.csv", "contact_pressure.png"]})
     return run.finish(summary, diagnostics)
