@@ -309,6 +309,11 @@ def _loading(t: _Table, wheel: WheelSpec) -> LoadingSpec:
         spec["max_sinkage"] = t.quantity("max_sinkage", LENGTH, required=True, positive=True)
         if spec["max_sinkage"] > 0.25 * wheel.diameter:
             raise InputError(t.key("max_sinkage"), f"must be at most d/4 = {wheel.diameter / 4:g} m")
+        if protocol == "indentation" and t.has("load"):      # pressed to a wheel load, max_sinkage the limit
+            if wheel.type != "pneumatic":
+                raise InputError(t.key("load"), "does not apply to protocol indentation with a rigid wheel (pressed "
+                                 "to max_sinkage; a pneumatic wheel can be pressed to a load)")
+            spec["load"] = t.quantity("load", FORCE, required=True, positive=True)
     else:
         spec["load"] = t.quantity("load", FORCE, required=True, positive=True)
     if protocol.startswith("rolling"):

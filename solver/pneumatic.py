@@ -32,7 +32,7 @@ from .contact_pair import FacetContact
 from .indentation import _NORMAL_COMPONENT, IndentationStep, StepCounts, symmetry_factor
 from .materials import NeoHookean
 from .problem import PlasticityProblem
-from .stepping import StepControl, StepRecord, settle_under_gravity, solve_load_path
+from .stepping import SolverDivergedError, StepControl, StepRecord, settle_under_gravity, solve_load_path
 
 __all__ = ["PneumaticIndentation", "TIRE_PENALTY"]
 
@@ -231,6 +231,61 @@ class PneumaticIndentation(StepCounts):
                 if on_step is not None:
                     on_step(st)
         return self.steps
+
+    def press_to_load(self, load: float, step: float, sinkage_limit: float, rtol: float = 1e-3,
+                      max_trials: int = 30, on_step=None) -> str:
+        """Press the hub down until the wheel load is ``load`` (N) within ``rtol``.  Steps as in
+        :meth:`press_to_sinkage` (at most ``step`` m of sinkage aimed at); a step that would
+        pass the load is undone and the hub height that carries it is found by regula falsi from
+        the last converged state below it, every accepted step loading further (the soil's path
+        stays monotone); a step that does not converge is halved.  Returns ``"ok"`` or
+        ``"exceeds_capacity"`` (the sinkage reached ``sinkage_limit`` below the load).  Raises
+        :class:`~rollsim.solver.stepping.SolverDivergedError` (last converged state kept) after
+        ``max_trials`` trials without a converged step."""
+        if self.hub_at_touch is None:
+            raise RuntimeError("touch() before press_to_load()")
+        if not load > 0:
+            raise ValueError(f"load must be > 0, got {load}")
+        pb, ratio, above = self.problem, 3.0, None       # above: (hub height, load) of a trial past it
+        while True:
+            hub0, Q0, s0 = float(self.hub.value[2]), self.wheel_load(), -self.lowest_point()
+            if abs(Q0 - load) <= rtol * load:
+                return "ok"
+            if s0 >= sinkage_limit:
+                return "exceeds_capacity"
+            trial = hub0 - ratio * min(step, sinkage_limit - s0)
+            its = cuts = 0
+            for _ in range(max_trials):
+                if above is not None:             # the height that carries the load, linearly
+                    trial = hub0 + (load - Q0) * (above[0] - hub0) / (above[1] - Q0)
+                self._set_hub_height(trial)
+                rep = pb.solve_increment()
+                its += rep.iterations
+                if not rep.converged:             # half the travel, no interpolation until passed again
+                    pb.restore()
+                    trial, cuts, above = hub0 - 0.5 * (hub0 - trial), cuts + 1, None
+                    continue
+                Q = self.wheel_load()
+                if Q <= load * (1 + rtol):
+                    break
+                pb.restore()
+                above = (trial, Q)
+            else:
+                self._set_hub_height(hub0)
+                raise SolverDivergedError(f"no converged step towards the load {load:g} N in {max_trials} trials",
+                                          None, [])
+            pb.commit()
+            s1 = -self.lowest_point()
+            if s1 > s0:
+                ratio = min(max((hub0 - trial) / (s1 - s0), 1.0), 20.0)
+            st = self._step(its, cuts)
+            if on_step is not None:
+                on_step(st)
+
+    def _set_hub_height(self, z: float) -> None:
+        hub = np.array(self.hub.value, dtype=float)
+        hub[2] = z
+        self.hub.value = hub
 
     def press(self, travel: float, control: StepControl | None = None, on_step=None) -> list[StepRecord]:
         """Lower the hub by ``travel`` (m) from where it is; ``on_step(t)`` after each converged

@@ -165,3 +165,41 @@ def test_pneumatic_rolling_is_refused_with_the_key(comm, tmp_mpi_path, capsys):
     comm.barrier()
     assert main(["run", str(scene), "--out", str(tmp_mpi_path / "roll")]) == 2
     assert comm.rank != 0 or "wheel.type" in capsys.readouterr().err        # rank 0 prints the error
+
+
+def _with_load(tmp, load: str, max_sinkage: str) -> pathlib.Path:
+    scene = _example(tmp, max_sinkage=max_sinkage)
+    text = scene.read_text().replace(f"max_sinkage = {max_sinkage}", f"max_sinkage = {max_sinkage}\nload = {load}")
+    path = tmp / f"scene_load_{load.strip(chr(34)).replace(' ', '')}.toml"
+    if MPI.COMM_WORLD.rank == 0:
+        path.write_text(text)
+    MPI.COMM_WORLD.barrier()
+    return path
+
+
+def test_pneumatic_scene_pressed_to_a_load(comm, tmp_mpi_path):
+    """``loading.load`` presses the tire until the wheel load is reached within 0.1 % (the last
+    step found by regula falsi); a load the soil does not carry by ``max_sinkage`` fails with
+    the keys to change."""
+    out = tmp_mpi_path / "to_load"
+    assert main(["run", str(_with_load(tmp_mpi_path, '"20 kN"', '"0.03 m"')), "--out", str(out), "--quiet"]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "ok"
+    assert summary["tire"]["wheel_load_N"] == pytest.approx(20e3, rel=1e-3)
+    assert 0 < summary["tire"]["sinkage_m"] < 0.03
+    out = tmp_mpi_path / "beyond"
+    main(["run", str(_with_load(tmp_mpi_path, '"200 kN"', '"0.004 m"')), "--out", str(out), "--quiet"])
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "failed" and "loading.max_sinkage" in summary["reason"], summary["reason"]
+    assert summary["tire"]["sinkage_m"] >= 0.004 and summary["tire"]["wheel_load_N"] < 200e3
+
+
+def test_rigid_indentation_to_a_load_is_refused_with_the_key(comm, tmp_mpi_path, capsys):
+    text = (EXAMPLE.parent / "indentation_mndot.toml").read_text()
+    scene = tmp_mpi_path / "rigid_to_load.toml"
+    if comm.rank == 0:
+        scene.write_text(text.replace('max_sinkage = "0.152 m"', 'max_sinkage = "0.152 m"\nload = "20 kN"'))
+    comm.barrier()
+    assert main(["run", str(scene), "--out", str(tmp_mpi_path / "rigid")]) == 2
+    assert comm.rank != 0 or "loading.load" in capsys.readouterr().err
+    assert not (tmp_mpi_path / "rigid").exists()

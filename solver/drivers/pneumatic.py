@@ -1,6 +1,7 @@
 """Driver of ``protocol = "indentation"`` with ``[wheel] type = "pneumatic"``: the tire inflated
 clear of the soil, lowered until it touches, then pressed by its hub until the sinkage (its lowest
-point below the undisturbed surface) reaches ``loading.max_sinkage``; quarter model, one mesh of
+point below the undisturbed surface) reaches ``loading.max_sinkage``, or until the wheel load is
+``loading.load`` (``max_sinkage`` then the limit); quarter model, one mesh of
 hexahedra for tire and soil (``rollsim.solver.pneumatic``).  Besides the common run files:
 the fields of tire and soil, ``plastic_zone.png`` (the deformed tire on the soil) and the contact
 pressure under the tire at the end (``contact_pressure.csv`` and ``.png``)."""
@@ -41,13 +42,22 @@ def run_pneumatic_indentation(scene, out_dir, comm: MPI.Comm, *, progress: bool 
                               petsc_options=petsc_options)
     run.attach(tagged, pn)
 
+    load = scene.loading.load
+
     def indentation():
-        run.announce(f"inflation {w.inflation / 1e3:g} kPa, then s -> {s_max:g} m")
+        run.announce(f"inflation {w.inflation / 1e3:g} kPa, then "
+                     + (f"Q -> {load / 1e3:g} kN (s <= {s_max:g} m)" if load else f"s -> {s_max:g} m"))
         pn.gravity_step()
         pn.inflate(w.inflation)
         pn.touch()
-        pn.press_to_sinkage(s_max, SINKAGE_STEP * d, stops=[r * d for r in REPORT_S_OVER_D if r * d < s_max],
-                            on_step=run.record_sinkage_step)
+        if not load:
+            pn.press_to_sinkage(s_max, SINKAGE_STEP * d, stops=[r * d for r in REPORT_S_OVER_D if r * d < s_max],
+                                on_step=run.record_sinkage_step)
+            return None
+        if pn.press_to_load(load, SINKAGE_STEP * d, s_max, on_step=run.record_sinkage_step) != "ok":
+            return (f"the wheel load {load:g} N is not carried by max_sinkage = {s_max:g} m (Q = "
+                    f"{pn.wheel_load():.4g} N there): raise loading.max_sinkage or lower loading.load")
+        return None
 
     status, reason, diagnostics = run.execute(
         indentation, lambda: {"last_converged_sinkage_m": -pn.lowest_point(), "step_cuts_total": pn.cuts})
