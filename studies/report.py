@@ -3,7 +3,8 @@
 Writes into DIR: force_sinkage.png (curves with their fits), effect_<key>.png (sinkage at
 the first reference load against each swept numeric parameter, computed points over the
 bearing-capacity model), pair_<key>.png (cases differing only in one two-valued key, such
-as friction 0.4 vs 0.8) and report.md.
+as friction 0.4 vs 0.8), for pneumatic wheels flexibility_<key>.png (lambda against each swept
+parameter) and tire_sinkage_vs_model.png, and report.md.
 """
 from __future__ import annotations
 
@@ -178,6 +179,57 @@ def _pair_figure(out, key, ok, params, distinct, load_tag):
     return [(name, f"{key} = {distinct[1]:g} vs {distinct[0]:g}, case by case")]
 
 
+def tire_figures(out: pathlib.Path, study: dict, rows: list[dict]) -> list[tuple[str, str]]:
+    """Pneumatic cases: the flexibility lambda against every swept numeric parameter (a line joins
+    the cases that differ in it only), and the computed sinkage against the bearing-capacity
+    model's with that lambda."""
+    ok = {r["case"]: r for r in rows if r.get("status") == "ok" and _number(r.get("flexibility_m_per_N") or "")}
+    if not ok:
+        return []
+    plt = _plt()
+    params = case_parameters(study)
+    figures = []
+    for key in dict.fromkeys(k for n in ok for k in params[n]):
+        names = [n for n in ok if isinstance(params[n].get(key), (int, float))]
+        series = effect_series({n: params[n] for n in names}, names, key)
+        if not series:
+            continue
+        fig, ax = plt.subplots(figsize=(6.5, 4.2))
+        for i, group in enumerate(series):
+            rest = ", ".join(f"{k} = {v:g}" for k, v in params[group[0]].items()
+                             if k != key and isinstance(v, (int, float)))
+            ax.plot([params[n][key] for n in group], [float(ok[n]["flexibility_m_per_N"]) for n in group], "o-",
+                    color=f"C{i % 10}", ms=4, label=rest or None)
+        ax.set(xlabel=key, ylabel="flexibility lambda = (d_e - d) / Q (m/N)", title=f"Tire flexibility against {key}")
+        ax.grid(alpha=0.3)
+        if any(ax.get_legend_handles_labels()[1]):
+            ax.legend(fontsize=8)
+        name = f"flexibility_{_safe(key)}.png"
+        fig.tight_layout()
+        fig.savefig(out / name, dpi=120)
+        plt.close(fig)
+        figures.append((name, f"tire flexibility against {key} (a line joins cases that differ in it only)"))
+    pairs = [(float(r["sinkage_m"]), float(r["model_sinkage_flex_m"]), float(r["model_sinkage_rigid_m"]))
+             for r in ok.values() if r.get("model_sinkage_flex_m")]
+    if pairs:
+        fe, flex, rigid = (1e3 * np.array(v) for v in zip(*pairs))
+        fig, ax = plt.subplots(figsize=(4.8, 4.5))
+        ax.plot(fe, flex, "o", color="C0", label="model, flexible wheel (computed lambda)")
+        ax.plot(fe, rigid, "s", color="C3", mfc="none", label="model, rigid wheel")
+        lim = [0, 1.1 * max(np.nanmax(np.r_[fe, flex, rigid]), 1.0)]
+        ax.plot(lim, lim, "k:", lw=0.8)
+        ax.set(xlim=lim, ylim=lim, xlabel="computed sinkage (mm)", ylabel="model sinkage (mm)",
+               title="Tire sinkage at its wheel load")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+        fig.tight_layout()
+        fig.savefig(out / "tire_sinkage_vs_model.png", dpi=120)
+        plt.close(fig)
+        figures.append(("tire_sinkage_vs_model.png", "the tire's computed sinkage against the bearing-capacity "
+                        "model's, with the computed flexibility and as a rigid wheel, at the same wheel load"))
+    return figures
+
+
 def _markdown_table(rows: list[dict]) -> str:
     if not rows:
         return "(no cases)"
@@ -238,6 +290,11 @@ def write_report(directory) -> pathlib.Path:
     if effects:
         text += ["", "## Parameter effects", ""]
         for name, caption in effects:
+            text += [f"![{caption}]({name})", "", f"*{caption}*", ""]
+    tires = tire_figures(out, study, rows)
+    if tires:
+        text += ["", "## Tire flexibility", ""]
+        for name, caption in tires:
             text += [f"![{caption}]({name})", "", f"*{caption}*", ""]
     zones = [(c["name"], c["zone"]) for c in cases if c.get("zone")][:MAX_ZONES]
     if zones:

@@ -473,6 +473,26 @@ def compare_steady_with_model(scene: Scene, summary: dict) -> dict:
     return row
 
 
+def compare_tire_with_model(scene: Scene, tire: dict) -> dict:
+    """A pneumatic wheel's figures (summary.json ``tire``) and the bearing-capacity model's sinkage
+    under the same wheel load, as a rigid wheel and as a flexible one with the computed lambda."""
+    from rollsim.studies import bearing_capacity as bc
+    keys = ("wheel_load_N", "sinkage_m", "deflection_m", "contact_length_m", "equivalent_diameter_m",
+            "flexibility_m_per_N", "carcass_load_share")
+    row = {k: tire.get(k) for k in keys}
+    d, load, lam = scene.wheel.diameter, tire.get("wheel_load_N"), tire.get("flexibility_m_per_N")
+    row["d_e_over_d"] = row["equivalent_diameter_m"] / d if row["equivalent_diameter_m"] else None
+    if not load or load <= 0:
+        return row
+    wheel, soil, opts = model_inputs(scene)
+    row["model_sinkage_rigid_m"] = float(bc.sinkage(load, wheel, soil, opts).sinkage)
+    if lam is not None and lam > 0:
+        flexible = bc.Wheel(wheel.diameter, wheel.width, wheel.shape, lam)
+        row["model_sinkage_flex_m"] = s_model = float(bc.sinkage(load, flexible, soil, opts).sinkage)
+        row["ratio_flex"] = tire["sinkage_m"] / s_model if s_model > 0 else float("nan")
+    return row
+
+
 def model_inputs(scene: Scene):
     """The bearing-capacity model's wheel, soil (top layer, Mohr-Coulomb) and options for a scene."""
     from rollsim.solver.materials import dp_to_mc
@@ -523,7 +543,9 @@ def fe_runner(reference_loads, petsc_options: dict | None = None) -> CaseRunner:
                   "newton_iterations": summary["newton_iterations"]}
         if summary["status"] != "ok":
             result["reason"] = summary.get("reason", "")
-        if case.scene.loading.protocol == "rolling-constant-load":
+        if case.scene.wheel.type == "pneumatic":
+            result["comparison"] = compare_tire_with_model(case.scene, summary.get("tire") or {})
+        elif case.scene.loading.protocol == "rolling-constant-load":
             result["comparison"] = compare_steady_with_model(case.scene, summary)
         elif len(history[0]) >= 4:  # a failed run's partial curve is still compared
             result["comparison"] = compare_with_model(case.scene, *history, reference_loads)

@@ -137,3 +137,37 @@ def test_fe_history_read_failing_on_rank0_fails_every_rank(tmp_mpi_path, monkeyp
     case = st.load_study(_write(tmp_mpi_path, STUDY)).cases[0]
     with pytest.raises(ValueError, match="planted read failure"):
         st.fe_runner((100e3,))(case, tmp_mpi_path, comm)
+
+
+def test_tire_comparison_uses_the_computed_flexibility_in_the_model():
+    """A pneumatic case's row: the model's flexible-wheel sinkage is that of a rigid wheel of the
+    loaded diameter d + lambda Q (the model's definition), below the rigid wheel's."""
+    from rollsim.studies import bearing_capacity as bc
+    study = st.load_study(ROOT / "studies" / "examples" / "tire_flexibility.toml")
+    scene = study.cases[0].scene
+    d, load, lam = scene.wheel.diameter, 20e3, 1.4e-5
+    tire = {"wheel_load_N": load, "sinkage_m": 0.015, "deflection_m": 0.04, "contact_length_m": 0.4,
+            "equivalent_diameter_m": d + lam * load, "flexibility_m_per_N": lam, "carcass_load_share": 0.3}
+    row = st.compare_tire_with_model(scene, tire)
+    wheel, soil, opts = st.model_inputs(scene)
+    loaded = bc.Wheel(d + lam * load, wheel.width, wheel.shape)
+    assert row["model_sinkage_flex_m"] == pytest.approx(float(bc.sinkage(load, loaded, soil, opts).sinkage), rel=1e-6)
+    assert row["model_sinkage_flex_m"] < row["model_sinkage_rigid_m"]
+    assert row["ratio_flex"] == pytest.approx(0.015 / row["model_sinkage_flex_m"])
+    assert row["d_e_over_d"] == pytest.approx(1 + lam * load / d)
+
+
+def test_tire_figures_plot_lambda_against_pressure_and_load(tmp_path):
+    from rollsim.studies.report import tire_figures
+    cases, rows = [], []
+    for p in (250e3, 450e3):
+        for q in (20e3, 40e3):
+            name = f"p{p:g}_q{q:g}"
+            cases.append({"name": name, "parameters": {"wheel.inflation_Pa": p, "loading.load_N": q}})
+            rows.append({"case": name, "status": "ok", "flexibility_m_per_N": f"{1e-5 * 450e3 / p:g}",
+                         "sinkage_m": "0.015", "model_sinkage_flex_m": "0.012", "model_sinkage_rigid_m": "0.02"})
+    figures = tire_figures(tmp_path, {"cases": cases}, rows)
+    names = sorted(name for name, _ in figures)
+    assert names == ["flexibility_loading_load_N.png", "flexibility_wheel_inflation_Pa.png",
+                     "tire_sinkage_vs_model.png"], names
+    assert all((tmp_path / n).stat().st_size > 0 for n in names)
