@@ -31,6 +31,14 @@ def _plt():
     return plt
 
 
+def _save(fig, path: pathlib.Path) -> str:
+    """Lay out, write (PNG, 120 dpi) and close ``fig``; returns the file's name."""
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    _plt().close(fig)
+    return path.name
+
+
 def _read_csv(path: pathlib.Path) -> list[dict]:
     return list(csv.DictReader(read_text(path, path.name).splitlines()))
 
@@ -91,10 +99,7 @@ def force_sinkage_figure(out: pathlib.Path, cases: list[dict]) -> list[str]:
         ax.grid(alpha=0.3)
         ax.legend(fontsize=6, ncol=2)
         name = "force_sinkage.png" if start == 0 else f"force_sinkage_{start // MAX_CURVES + 1}.png"
-        fig.tight_layout()
-        fig.savefig(out / name, dpi=120)
-        plt.close(fig)
-        names.append(name)
+        names.append(_save(fig, out / name))
     return names
 
 
@@ -141,10 +146,7 @@ def effect_figures(out: pathlib.Path, study: dict, rows: list[dict], load_tag: s
         ax.set(xlabel=key, ylabel=f"sinkage at {load_tag} (mm)", title=f"Effect of {key}")
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)
-        name = f"effect_{_safe(key)}.png"
-        fig.tight_layout()
-        fig.savefig(out / name, dpi=120)
-        plt.close(fig)
+        name = _save(fig, out / f"effect_{_safe(key)}.png")
         figures.append((name, f"sinkage at {load_tag} against {key} (a line joins cases that differ in it only)"))
         distinct = sorted(values)
         if len(distinct) == 2:
@@ -172,10 +174,7 @@ def _pair_figure(out, key, ok, params, distinct, load_tag):
            ylabel=f"sinkage, {key} = {distinct[1]:g} (mm)",
            title=f"{key}: mean ratio {np.nanmean(b / a):.3f}")
     ax.grid(alpha=0.3)
-    name = f"pair_{_safe(key)}.png"
-    fig.tight_layout()
-    fig.savefig(out / name, dpi=120)
-    plt.close(fig)
+    name = _save(fig, out / f"pair_{_safe(key)}.png")
     return [(name, f"{key} = {distinct[1]:g} vs {distinct[0]:g}, case by case")]
 
 
@@ -204,10 +203,7 @@ def tire_figures(out: pathlib.Path, study: dict, rows: list[dict]) -> list[tuple
         ax.grid(alpha=0.3)
         if any(ax.get_legend_handles_labels()[1]):
             ax.legend(fontsize=8)
-        name = f"flexibility_{_safe(key)}.png"
-        fig.tight_layout()
-        fig.savefig(out / name, dpi=120)
-        plt.close(fig)
+        name = _save(fig, out / f"flexibility_{_safe(key)}.png")
         figures.append((name, f"tire flexibility against {key} (a line joins cases that differ in it only)"))
     pairs = [(float(r["sinkage_m"]), float(r["model_sinkage_flex_m"]), float(r["model_sinkage_rigid_m"]))
              for r in ok.values() if r.get("model_sinkage_flex_m")]
@@ -222,10 +218,7 @@ def tire_figures(out: pathlib.Path, study: dict, rows: list[dict]) -> list[tuple
                title="Tire sinkage at its wheel load")
         ax.grid(alpha=0.3)
         ax.legend(fontsize=8)
-        fig.tight_layout()
-        fig.savefig(out / "tire_sinkage_vs_model.png", dpi=120)
-        plt.close(fig)
-        figures.append(("tire_sinkage_vs_model.png", "the tire's computed sinkage against the bearing-capacity "
+        figures.append((_save(fig, out / "tire_sinkage_vs_model.png"), "the tire's computed sinkage against the bearing-capacity "
                         "model's, with the computed flexibility and as a rigid wheel, at the same wheel load"))
     return figures
 
@@ -332,9 +325,7 @@ def run_report(directory) -> pathlib.Path:
            title=f"{summary.get('protocol', '')}: d = {scene.wheel.diameter:g} m, b = {scene.wheel.width:g} m")
     ax.grid(alpha=0.3)
     ax.legend()
-    fig.tight_layout()
-    fig.savefig(out / "force_sinkage_vs_model.png", dpi=120)
-    plt.close(fig)
+    _save(fig, out / "force_sinkage_vs_model.png")
     text = [f"# Run report: {out.name}", "", f"status **{summary['status']}**"
             + (f" ({summary.get('reason')})" if summary.get("reason") else "")
             + f", {summary.get('steps')} steps, {summary.get('newton_iterations')} Newton iterations, "

@@ -114,16 +114,20 @@ def test_tire_sinks_into_clay(comm):
 EXAMPLE = pathlib.Path(__file__).parents[1] / "examples" / "pneumatic_indentation.toml"
 
 
+def _scene_file(path: pathlib.Path, text: str) -> pathlib.Path:
+    """``text`` written to ``path`` by rank 0, there for every rank."""
+    if MPI.COMM_WORLD.rank == 0:
+        path.write_text(text)
+    MPI.COMM_WORLD.barrier()
+    return path
+
+
 def _example(tmp, **changes) -> pathlib.Path:
     """The example scene with ``key = value`` lines replaced (TOML text)."""
     text = EXAMPLE.read_text()
     for key, value in changes.items():
         text = re.sub(rf"(?m)^{key} = .*$", f"{key} = {value}", text)
-    path = tmp / f"scene_{'_'.join(changes) or 'example'}.toml"
-    if MPI.COMM_WORLD.rank == 0:
-        path.write_text(text)
-    MPI.COMM_WORLD.barrier()
-    return path
+    return _scene_file(tmp / f"scene_{'_'.join(changes) or 'example'}.toml", text)
 
 
 def test_pneumatic_scene_runs_end_to_end(comm, tmp_mpi_path):
@@ -159,10 +163,7 @@ def test_pneumatic_scene_runs_end_to_end(comm, tmp_mpi_path):
 
 def test_pneumatic_rolling_is_refused_with_the_key(comm, tmp_mpi_path, capsys):
     scene = _example(tmp_mpi_path, protocol='"rolling-constant-load"', max_sinkage='"0.01 m"')
-    text = scene.read_text().replace('max_sinkage = "0.01 m"', 'load = "50 kN"\ntravel = "1 m"')
-    if comm.rank == 0:
-        scene.write_text(text)
-    comm.barrier()
+    _scene_file(scene, scene.read_text().replace('max_sinkage = "0.01 m"', 'load = "50 kN"\ntravel = "1 m"'))
     assert main(["run", str(scene), "--out", str(tmp_mpi_path / "roll")]) == 2
     assert comm.rank != 0 or "wheel.type" in capsys.readouterr().err        # rank 0 prints the error
 
@@ -170,11 +171,7 @@ def test_pneumatic_rolling_is_refused_with_the_key(comm, tmp_mpi_path, capsys):
 def _with_load(tmp, load: str, max_sinkage: str) -> pathlib.Path:
     scene = _example(tmp, max_sinkage=max_sinkage)
     text = scene.read_text().replace(f"max_sinkage = {max_sinkage}", f"max_sinkage = {max_sinkage}\nload = {load}")
-    path = tmp / f"scene_load_{load.strip(chr(34)).replace(' ', '')}.toml"
-    if MPI.COMM_WORLD.rank == 0:
-        path.write_text(text)
-    MPI.COMM_WORLD.barrier()
-    return path
+    return _scene_file(tmp / f"scene_load_{load.strip(chr(34)).replace(' ', '')}.toml", text)
 
 
 def test_pneumatic_scene_pressed_to_a_load(comm, tmp_mpi_path):
@@ -196,10 +193,8 @@ def test_pneumatic_scene_pressed_to_a_load(comm, tmp_mpi_path):
 
 def test_rigid_indentation_to_a_load_is_refused_with_the_key(comm, tmp_mpi_path, capsys):
     text = (EXAMPLE.parent / "indentation_mndot.toml").read_text()
-    scene = tmp_mpi_path / "rigid_to_load.toml"
-    if comm.rank == 0:
-        scene.write_text(text.replace('max_sinkage = "0.152 m"', 'max_sinkage = "0.152 m"\nload = "20 kN"'))
-    comm.barrier()
+    scene = _scene_file(tmp_mpi_path / "rigid_to_load.toml",
+                        text.replace('max_sinkage = "0.152 m"', 'max_sinkage = "0.152 m"\nload = "20 kN"'))
     assert main(["run", str(scene), "--out", str(tmp_mpi_path / "rigid")]) == 2
     assert comm.rank != 0 or "loading.load" in capsys.readouterr().err
     assert not (tmp_mpi_path / "rigid").exists()
