@@ -95,7 +95,7 @@ class CellProjection:
     def refresh(self) -> None:
         """Integration weights of the owned quadrature points (reference weight times the cell's
         Jacobian determinant times ``J_n``) and the cells' inverse Gram matrices, for the current
-        configuration."""
+        configuration (computed at first use; call again when ``J_n`` has changed)."""
         self.weights = (compat.evaluate(self._volume_expr, self._mesh).reshape(self.n_cells, self.nq)
                         * self._ref_weights)
         M = np.einsum("cq,cqa,cqb->cab", self.weights, self._psi, self._psi)

@@ -379,20 +379,20 @@ class PlasticityProblem:
         # the initial (geostatic) stress varies inside a cell, so it is in equilibrium with the
         # body force for the pointwise strain only: B-bar acts on the stress change
         self._sigma0 = fem.Function(self.Qs, name="initial_stress") if bbar else None
-        self._cell_average = None
+        self._projection = None
         stress = self.sigma
         if bbar and not simplex:
-            self._cell_average = CellProjection(mesh, self.V, eps, Ct, self._J_n, dx_soil,
-                                                compat.quadrature_rule(mesh, self.qdeg), self.n_cells,
-                                                degree=1 if volumetric_projection is None else volumetric_projection)
-            self._sigma_bar = stress = fem.Function(self.Qs, name="stress_cell_mean_trace")
+            self._projection = CellProjection(mesh, self.V, eps, Ct, self._J_n, dx_soil,
+                                              compat.quadrature_rule(mesh, self.qdeg), self.n_cells,
+                                              degree=1 if volumetric_projection is None else volumetric_projection)
+            self._sigma_bar = stress = fem.Function(self.Qs, name="stress_projected_trace")
         soil = (ufl.inner(stress, eps(v)) * self._J_n * dx_soil
                 - self.gravity_factor * ufl.inner(self.body_force, v) * dx_soil)
         if centroid is not None:     # residual + int sigma_0 : (eps(v) - eps_bar(v)), a constant vector
             soil += ufl.inner(self._sigma0, mandel_strain(v, self.gdim, F_inv) - eps(v)) * self._J_n * dx_soil
         bodies = soil
-        if self._cell_average is not None:   # pointwise part; the cell couplings are added assembled
-            e = self._cell_average.deviatoric(eps)
+        if self._projection is not None:   # pointwise part; the cell couplings are added assembled
+            e = self._projection.deviatoric(eps)
             jacobian = ufl.inner(ufl.dot(Ct, e(du)), e(v)) * self._J_n * dx_soil
         else:
             jacobian = ufl.inner(ufl.dot(Ct, eps(du)), eps(v)) * self._J_n * dx_soil
@@ -586,9 +586,10 @@ class PlasticityProblem:
         compat.evaluate_into(self._deps_expr, self._deps_q)
         nc = self.ncomp
         sig_n, deps = self._owned(self.sigma_n, nc), self._owned(self._deps_q, nc)
-        if self._cell_average is not None:
-            self._cell_average.refresh()
-            deps[:] = self._cell_average.projected(deps)
+        if self._projection is not None:
+            if self.kinematics == "updated-lagrangian":   # the weights follow the configuration
+                self._projection.refresh()
+            deps[:] = self._projection.projected(deps)
         error = None
         try:
             res = self._return_map(sig_n, deps, tangent)
@@ -606,13 +607,13 @@ class PlasticityProblem:
         return res
 
     def _refresh_stress_bar(self) -> None:
-        """With exact cell means: the residual's stress, the current stress with the cell mean
-        of its change's trace, ``sigma_0 + averaged(sigma - sigma_0)`` (solver/cell_average.py)."""
-        if self._cell_average is None:
+        """With the exact cell projection: the residual's stress, the current stress with the trace
+        of its change projected, ``sigma_0 + projected(sigma - sigma_0)`` (solver/cell_average.py)."""
+        if self._projection is None:
             return
         nc = self.ncomp
         sig0 = self._owned(self._sigma0, nc)
-        self._set_owned(self._sigma_bar, sig0 + self._cell_average.projected(self._owned(self.sigma, nc) - sig0))
+        self._set_owned(self._sigma_bar, sig0 + self._projection.projected(self._owned(self.sigma, nc) - sig0))
 
     def _return_map(self, sig_n: np.ndarray, deps: np.ndarray, tangent: bool) -> ReturnResult:
         """The return map of every material group (and the Duvaut-Lions step when it is on)."""
@@ -711,8 +712,8 @@ class PlasticityProblem:
         if self._dirichlet_gap(x):
             compat.apply_lifting(b, [self._J_form], self.bcs, x, scale=-1.0)
             b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-            if self._cell_average is not None:
-                self._cell_average.lift_residual(b, self.bcs, x, self._owned(self.tangent, self.ncomp ** 2))
+            if self._projection is not None:
+                self._projection.lift_residual(b, self.bcs, x, self._owned(self.tangent, self.ncomp ** 2))
         compat.set_bc(b, self.bcs, x, -1.0)
         self.timings["residual"] += time.perf_counter() - t0
 
@@ -746,8 +747,8 @@ class PlasticityProblem:
             for term in self._assembled_terms:
                 term.add_jacobian(A)
         A.assemble()
-        if self._cell_average is not None:
-            self._cell_average.add_jacobian(A, self.bcs, self._owned(self.tangent, self.ncomp ** 2))
+        if self._projection is not None:
+            self._projection.add_jacobian(A, self.bcs, self._owned(self.tangent, self.ncomp ** 2))
 
     def _snes_converged(self, snes, it, norms):
         xnorm, gnorm, fnorm = norms
@@ -1000,8 +1001,8 @@ class PlasticityProblem:
             self._A.zeroEntries()
             fpetsc.assemble_matrix(self._A, self._J_form, self.bcs)
             self._A.assemble()
-            if self._cell_average is not None:
-                self._cell_average.add_jacobian(self._A, self.bcs, self._owned(self.tangent, self.ncomp ** 2))
+            if self._projection is not None:
+                self._projection.add_jacobian(self._A, self.bcs, self._owned(self.tangent, self.ncomp ** 2))
             ksp.setOperators(self._A)
             ksp.solve(b, y)
             if _:
