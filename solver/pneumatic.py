@@ -43,6 +43,12 @@ TIRE_PENALTY = 3.0
 log = get_logger("solver")
 
 
+def _travel_ratio(travel: float, s0: float, s1: float, ratio: float) -> float:
+    """The hub's travel per unit of sinkage of a step that sank the tire from ``s0`` to ``s1``
+    (kept within 1-20; ``ratio`` unchanged where the step did not sink it)."""
+    return min(max(travel / (s1 - s0), 1.0), 20.0) if s1 > s0 else ratio
+
+
 class PneumaticIndentation(StepCounts):
     """A pneumatic tire over the soil of ``tagged`` (one mesh, :func:`~rollsim.geometry.build_tire_on_soil`
     of the :class:`~rollsim.geometry.PneumaticTire` ``tire``).
@@ -224,9 +230,7 @@ class PneumaticIndentation(StepCounts):
                     break
                 travel = ratio * min(step, target - s0)
                 records = self.press(travel, StepControl(dt=1.0, dt_max=1.0))
-                s1 = -self.lowest_point()
-                if s1 > s0:
-                    ratio = min(max(travel / (s1 - s0), 1.0), 20.0)
+                ratio = _travel_ratio(travel, s0, -self.lowest_point(), ratio)
                 st = self._step(sum(r.iterations for r in records), max(len(records) - 1, 0))
                 if on_step is not None:
                     on_step(st)
@@ -275,9 +279,7 @@ class PneumaticIndentation(StepCounts):
                 raise SolverDivergedError(f"no converged step towards the load {load:g} N in {max_trials} trials",
                                           None, [])
             pb.commit()
-            s1 = -self.lowest_point()
-            if s1 > s0:
-                ratio = min(max((hub0 - trial) / (s1 - s0), 1.0), 20.0)
+            ratio = _travel_ratio(hub0 - trial, s0, -self.lowest_point(), ratio)
             st = self._step(its, cuts)
             if on_step is not None:
                 on_step(st)

@@ -9,8 +9,6 @@ from __future__ import annotations
 
 from mpi4py import MPI
 
-from rollsim.log import get_logger
-
 from ..materials import NeoHookean
 from ..pneumatic import TIRE_PENALTY, PneumaticIndentation
 from ..rundir import write_contact_pressure
@@ -18,8 +16,6 @@ from ..scene_model import pneumatic_mesh
 from .base import REPORT_S_OVER_D, ProtocolRun
 
 __all__ = ["run_pneumatic_indentation", "SINKAGE_STEP"]
-
-log = get_logger("run")
 
 #: the largest sinkage increment aimed at per step, in d
 SINKAGE_STEP = 0.004
