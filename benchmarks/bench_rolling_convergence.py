@@ -52,7 +52,8 @@ LENGTH, TRAVEL = 2.6, 1.5
 #: how a plain scene's travel fallback relaxes a roll (``--fallbacks``)
 FALLBACK_ROUTE = "started over relaxed"
 #: values of the run keys that results saved before the key existed were run with
-DEFAULTS = {"relaxation_length_mm": 0.0, "fallbacks": False, "block_length_d": LENGTH, "travel_d": TRAVEL}
+DEFAULTS = {"relaxation_length_mm": 0.0, "fallbacks": False, "block_length_d": LENGTH, "travel_d": TRAVEL,
+            "cells": "tetrahedra"}
 
 
 def block_args(length: float = LENGTH, travel: float = TRAVEL) -> list[str]:
@@ -63,12 +64,12 @@ def block_args(length: float = LENGTH, travel: float = TRAVEL) -> list[str]:
 
 
 def level_args(soil: str, refinement: float, strain: str, relaxation_length: float = 0.0,
-               block: list[str] | None = None, fallbacks: bool = False):
+               block: list[str] | None = None, fallbacks: bool = False, hexahedra: bool = False):
     """The constant-load run of ``soil`` at ``refinement`` elements per d on ``block`` (arguments of
     ``bench_rolling_protocols.py``; default :func:`block_args`), as parsed arguments."""
     return protocols.parser().parse_args(SOILS[soil] + (block or block_args()) + [
         "--refinement", f"{refinement:g}", "--volumetric-strain", strain, "--skip-continuous",
-        "--relaxation-length", f"{relaxation_length:g}"] + ["--fallbacks"] * fallbacks)
+        "--relaxation-length", f"{relaxation_length:g}"] + ["--fallbacks"] * fallbacks + ["--hexahedra"] * hexahedra)
 
 
 def sinkage(r: dict) -> float | None:
@@ -94,6 +95,8 @@ def formulation(r: dict) -> str:
     route = r.get("fallbacks")
     if route:       # True: saved when a failed roll was relaxed over 0.1 d stretches only
         text += ", fallbacks over 0.1 d stretches" if route is True else f", fallback {route}"
+    if r.get("cells", "tetrahedra") == "hexahedra":
+        text += ", Q2-P1 hexahedra" if r["strain"] == "cell-average" else ", Q2 hexahedra"
     length, travel = r.get("block_length_d", LENGTH), r.get("travel_d", TRAVEL)
     if (length, travel) != (LENGTH, TRAVEL):
         text += f", {length:g} d block, {travel:g} d travel"
@@ -208,6 +211,8 @@ def main(argv=None) -> int:
                    help="relax a failed step as a plain rollsim run scene does (kept apart in the table)")
     p.add_argument("--length", type=float, default=LENGTH, help="block length, d (kept apart in the table)")
     p.add_argument("--travel", type=float, default=TRAVEL, help="constant-load travel limit, d")
+    p.add_argument("--hexahedra", action="store_true",
+                   help="structured 27-node hexahedra (B-bar: Q2-P1; kept apart in the table)")
     p.add_argument("--table", nargs="+", metavar="JSON", help="print the table of saved results and stop")
     p.add_argument("--figure", type=pathlib.Path,
                    help="with --table: draw the sinkage along the travel of every level to this file")
@@ -226,13 +231,14 @@ def main(argv=None) -> int:
         for n in args.refinement:
             run = {"soil": args.soil, "strain": strain, "refinement": n,
                    "relaxation_length_mm": args.relaxation_length, "fallbacks": args.fallbacks and FALLBACK_ROUTE,
-                   "block_length_d": args.length, "travel_d": args.travel}
+                   "block_length_d": args.length, "travel_d": args.travel,
+                   "cells": "hexahedra" if args.hexahedra else "tetrahedra"}
             if any(all(r.get(k, DEFAULTS.get(k, 0.0)) == v for k, v in run.items()) for r in results):
                 if comm.rank == 0:
                     print(f"{formulation(run)}, {n:g} elements / d: in {args.out}, not solved again", flush=True)
                 continue
             level = level_args(args.soil, n, strain, args.relaxation_length, block_args(args.length, args.travel),
-                               args.fallbacks)
+                               args.fallbacks, args.hexahedra)
             cl = protocols.constant_load(comm, level.mu[0], level)
             # the sinkage along the travel (m, m): where a level settles, or whether it drifts
             cl["travel_sinkage"] = [[round(x, 5), round(s, 7)] for x, s, _, _ in cl.pop("curve")]

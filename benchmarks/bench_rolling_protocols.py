@@ -51,8 +51,8 @@ D, B, GAMMA = 1.524, 0.4572, 20e3
 def _block(comm, args, stiff, length=None):
     blk = rolling_block(D, length=length or args.length, half_width=args.half_width, depth=args.depth, stiff_length=stiff,
                         path_half_width=args.path_half_width, refined_depth=args.refined_depth)
-    mesh = (MeshOptions.from_refinement(D, args.refinement) if args.refinement
-            else MeshOptions.from_accuracy(D, args.accuracy))
+    mesh = (MeshOptions.from_refinement(D, args.refinement, hexahedra=args.hexahedra) if args.refinement
+            else MeshOptions.from_accuracy(D, args.accuracy, hexahedra=args.hexahedra))
     return build_soil_block(comm, blk, mesh)
 
 
@@ -186,6 +186,8 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--half-width", type=float, default=0.8)
     p.add_argument("--depth", type=float, default=0.8)
     p.add_argument("--stiff", type=float, default=0.5, help="stiff start zone length, d")
+    p.add_argument("--hexahedra", action="store_true",
+                   help="structured 27-node hexahedra (B-bar: Q2-P1) instead of 10-node tetrahedra")
     p.add_argument("--path-half-width", type=float, default=0.3, help="half width of the refined strip, d")
     p.add_argument("--refined-depth", type=float, default=0.4, help="depth of the refined strip, d")
     p.add_argument("--cl-travel", type=float, default=1.3, help="constant-load travel limit, d")
