@@ -441,8 +441,9 @@ def cmd_run(args) -> dict:
     scene = load_scene(args.scene)
     output_directory(args.out)
     options = _petsc_options(args.petsc_option)
-    if scene.wheel.type != "rigid" and scene.loading.protocol != "indentation":
-        raise InputError("wheel.type", 'a pneumatic wheel runs with protocol = "indentation" so far')
+    if scene.wheel.type != "rigid" and scene.loading.protocol == "rolling-continuous":
+        raise InputError("wheel.type", 'a pneumatic wheel runs with protocol = "indentation" or '
+                         '"rolling-constant-load"')
     from rollsim.solver.run import run_scene
     summary = run_scene(scene, args.out, comm, progress=not args.quiet, petsc_options=options or None,
                         write_fields=not args.no_fields)

@@ -28,6 +28,7 @@ _LAZY = {
     "WheelRolling": "rolling", "RollingStep": "rolling", "SteadyState": "rolling",
     "run_scene": "run", "FieldWriter": "fields", "DRIVERS": "drivers",
     "Carcass": "carcass", "FacetContact": "contact_pair", "PneumaticIndentation": "pneumatic",
+    "PneumaticRolling": "pneumatic_rolling",
 }
 
 

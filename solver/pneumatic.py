@@ -40,6 +40,9 @@ __all__ = ["PneumaticIndentation", "TIRE_PENALTY"]
 #: 10 (docs/verification.md, two deformable bodies) and lets the soil's penetration stay small
 TIRE_PENALTY = 3.0
 
+#: the largest hub travel of one step of :meth:`PneumaticIndentation.press_to_load`, in aimed sinkage steps
+MAX_TRAVEL_RATIO = 4.0
+
 log = get_logger("solver")
 
 
@@ -71,6 +74,8 @@ class PneumaticIndentation(StepCounts):
         self.tagged, self.comm = tagged, msh.comm
         self.gamma, self.K0 = float(gamma), K0
         self.factor = symmetry_factor(names, 3)
+        #: a quarter model (x >= the axle only), else a half or full model
+        self.quarter = "symmetry_x" in names
         sections = {n: t for n, t in TIRE_CELL_TAGS.items() if n in tagged.cell_names}
         carcass = carcass if isinstance(carcass, dict) else {name: carcass for name in sections}
         unknown = sorted(set(carcass) - set(sections))
@@ -86,15 +91,19 @@ class PneumaticIndentation(StepCounts):
                                               petsc_options=petsc_options)
         V = pb.V
         fdim = msh.topology.dim - 1
-        #: the hub's displacement (m): the bead follows it
-        self.hub = fem.Constant(msh, np.zeros(3, dtype=PETSc.ScalarType))
+        #: the hub's displacement (m) and rotation about the axle (rad, positive rolling towards +x):
+        #: the bead follows them (:meth:`_place_hub`)
+        self.hub = np.zeros(3)
+        self.hub_rotation = 0.0
         bcs = []
         for name, comp in _NORMAL_COMPONENT[3].items():
             if name in names:
                 dofs = fem.locate_dofs_topological(V.sub(comp), fdim, tagged.facet_tags.find(names[name]))
                 bcs.append(fem.dirichletbc(0.0, dofs, V.sub(comp)))
-        bead = fem.locate_dofs_topological(V, fdim, tagged.facet_tags.find(names["hub_rim"]))
-        bcs.append(fem.dirichletbc(self.hub, bead, V))
+        self._bead = fem.locate_dofs_topological(V, fdim, tagged.facet_tags.find(names["hub_rim"]))
+        self._bead_arm = V.tabulate_dof_coordinates()[self._bead] - np.array(tire.centre)   # m, from the axle
+        self._bead_u = fem.Function(V)
+        bcs.append(fem.dirichletbc(self._bead_u, self._bead))
         pb.bcs = bcs
         #: the inflation pressure (Pa)
         self.pressure = fem.Constant(msh, PETSc.ScalarType(0.0))
@@ -156,12 +165,17 @@ class PneumaticIndentation(StepCounts):
         Q = self.wheel_load()
         x = self.contact.contact_points()[0]
         comm = self.comm
-        reach = comm.allreduce(float(np.abs(x[:, 0] - self.x_centre).max(initial=0.0)), op=MPI.MAX)
-        length = 2 * reach                     # the quarter and half models hold x >= x_centre
+        x_axle = self.x_centre + self.hub[0]
+        ahead = comm.allreduce(float((x[:, 0] - x_axle).max(initial=-np.inf)), op=MPI.MAX)
+        behind = comm.allreduce(float((x[:, 0] - x_axle).min(initial=np.inf)), op=MPI.MIN)
+        if not np.isfinite(ahead):
+            length = 0.0
+        else:                                  # the quarter model holds x >= the axle only
+            length = 2 * ahead if self.quarter else ahead - behind
         area = self.factor * self.contact.contact_area()
-        hub = 0.0 if self.hub_at_touch is None else self.hub_at_touch - float(self.hub.value[2])
+        hub = 0.0 if self.hub_at_touch is None else self.hub_at_touch - float(self.hub[2])
         tread = np.abs(x[:, 1]) < self.tread_half_width          # the fit of z = z_0 + r2 / d_e
-        r2, z = (x[tread, 0] - self.x_centre) ** 2, x[tread, 2]
+        r2, z = (x[tread, 0] - x_axle) ** 2, x[tread, 2]
         sums = np.array([tread.sum(), r2.sum(), (r2 * r2).sum(), z.sum(), (r2 * z).sum()])
         n, sx, sxx, sz, sxz = comm.allreduce(sums)
         slope = (n * sxz - sx * sz) / (n * sxx - sx * sx) if n > 2 and n * sxx - sx * sx > 0 else 0.0
@@ -209,7 +223,7 @@ class PneumaticIndentation(StepCounts):
     def touch(self, control: StepControl | None = None) -> list[StepRecord]:
         """Lower the hub until the tire's lowest point reaches the soil's undisturbed surface."""
         records = self.press(self.lowest_point(), control or StepControl(dt=0.5, dt_max=0.5))
-        self.hub_at_touch = float(self.hub.value[2])
+        self.hub_at_touch = float(self.hub[2])
         return records
 
     def press_to_sinkage(self, sinkage: float, step: float, stops=(), on_step=None) -> list[IndentationStep]:
@@ -252,12 +266,14 @@ class PneumaticIndentation(StepCounts):
             raise ValueError(f"load must be > 0, got {load}")
         pb, ratio, above = self.problem, 3.0, None       # above: (hub height, load) of a trial past it
         while True:
-            hub0, Q0, s0 = float(self.hub.value[2]), self.wheel_load(), -self.lowest_point()
+            hub0, Q0, s0 = float(self.hub[2]), self.wheel_load(), -self.lowest_point()
             if abs(Q0 - load) <= rtol * load:
                 return "ok"
             if s0 >= sinkage_limit:
                 return "exceeds_capacity"
-            trial = hub0 - ratio * min(step, sinkage_limit - s0)
+            # the hub's travel per step stays below MAX_TRAVEL_RATIO steps: on a stiff soil the tire
+            # only deflects, and a long stroke drives the tread through the soil's top facets
+            trial = hub0 - min(ratio * min(step, sinkage_limit - s0), MAX_TRAVEL_RATIO * step)
             its = cuts = 0
             for _ in range(max_trials):
                 if above is not None:             # the height that carries the load, linearly
@@ -285,16 +301,29 @@ class PneumaticIndentation(StepCounts):
                 on_step(st)
 
     def _set_hub_height(self, z: float) -> None:
-        hub = np.array(self.hub.value, dtype=float)
+        hub = self.hub.copy()
         hub[2] = z
-        self.hub.value = hub
+        self._place_hub(hub)
+
+    def _place_hub(self, displacement=None, rotation: float | None = None) -> None:
+        """Move the hub to ``displacement`` (m) and ``rotation`` (rad about the axle; ``None``:
+        unchanged); the bead follows as a rigid body, ``u = c + (R(theta) - I) (X - X_axle)``."""
+        if displacement is not None:
+            self.hub = np.asarray(displacement, dtype=float).copy()
+        if rotation is not None:
+            self.hub_rotation = float(rotation)
+        c, s = np.cos(self.hub_rotation), np.sin(self.hub_rotation)
+        arm = self._bead_arm
+        turned = np.column_stack([c * arm[:, 0] + s * arm[:, 2], arm[:, 1], -s * arm[:, 0] + c * arm[:, 2]])
+        values = self._bead_u.x.array.reshape(-1, 3)
+        values[self._bead] = self.hub + turned - arm
 
     def press(self, travel: float, control: StepControl | None = None, on_step=None) -> list[StepRecord]:
         """Lower the hub by ``travel`` (m) from where it is; ``on_step(t)`` after each converged
         step (``t``: the fraction of the travel) may return a dict kept in the step's record."""
-        start = np.array(self.hub.value, dtype=float)
+        start = self.hub.copy()
 
         def move(t):
-            self.hub.value = start - np.array([0.0, 0.0, t * travel])
+            self._place_hub(start - np.array([0.0, 0.0, t * travel]))
 
         return solve_load_path(self.problem, move, control or StepControl(dt=0.1, dt_max=0.25), on_step=on_step)

@@ -967,13 +967,16 @@ class PlasticityProblem:
         self.u.x.array[:] = 0.0
         self.u_n.x.array[:] = 0.0
 
-    def internal_force(self, w: fem.Function) -> float:
+    def internal_force(self, w: fem.Function, every_term: bool = False) -> float:
         """Global ``int sigma : eps(w) - b . w`` at the current stress: for ``w`` = 1 on a set of
         dofs (one direction) and 0 elsewhere this is the resultant reaction there (partition
-        independent: an assembled global scalar)."""
-        key = id(w)
+        independent: an assembled global scalar).  ``every_term``: the whole residual of the forms
+        (with the terms of :meth:`add_residual_term`, e.g. a pressure), not the terms assembled by
+        index."""
+        key = (id(w), every_term)
         if key not in self._internal_force_forms:
-            wf = ufl.replace(self._F_terms[0], {self._v: w})
+            terms = self._F_terms if every_term else self._F_terms[:1]
+            wf = ufl.replace(sum(terms[1:], terms[0]), {self._v: w})
             self._internal_force_forms[key] = (w, fem.form(wf))
         val = fem.assemble_scalar(self._internal_force_forms[key][1])
         return float(self.comm.allreduce(val))

@@ -44,8 +44,8 @@ from .problem import NewtonReport
 from .stepping import (RelaxationFallback, SolverDivergedError, StepControl, advance_with_fallback, solve_load_path,
                        straight_path)
 
-__all__ = ["WheelRolling", "RollingStep", "SteadyState", "detect_steady_state", "DEFAULT_ROLL_CONTROL",
-           "STEADY_MIN_TRAVEL"]
+__all__ = ["WheelRolling", "RollingStep", "with_stiff_zone", "SteadyState", "detect_steady_state",
+           "DEFAULT_ROLL_CONTROL", "STEADY_MIN_TRAVEL"]
 
 log = get_logger("solver")
 
@@ -215,6 +215,21 @@ class _PoseBorder:
         self._ct.move_pose(self.unknowns, dq)
 
 
+def with_stiff_zone(tagged, materials, stiff_material=None) -> dict:
+    """``{cell tag: material}`` of ``materials`` (one material: the layer tag 1), with the stiff
+    start zone (tag ``STIFF_ZONE_TAG``) when the mesh has one and ``materials`` does not name it:
+    ``stiff_material``, by default elastic with 10x the top layer's modulus."""
+    from rollsim.geometry import STIFF_ZONE_TAG
+    mats = dict(materials) if isinstance(materials, dict) else {1: materials}
+    if STIFF_ZONE_TAG in tagged.cell_names.values() and STIFF_ZONE_TAG not in mats:
+        if stiff_material is None:
+            from .materials import VonMises
+            top = mats[min(mats)]
+            stiff_material = VonMises(E=10 * top.E, nu=top.nu, yield_stress=1e12)
+        mats[STIFF_ZONE_TAG] = stiff_material
+    return mats
+
+
 class WheelRolling:
     """Towed rigid wheel on a half (or full) rolling block.
 
@@ -237,14 +252,8 @@ class WheelRolling:
                  x_start: float | None = None, moment_rtol: float = 2e-3,
                  stiff_material=None, petsc_options: dict | None = None, penalty: float | None = None,
                  relaxation_length: float = 0.0, travel_relaxation_fallback: float = 0.0, **kw):
-        from rollsim.geometry import ROLLING_START, STIFF_ZONE_TAG
-        mats = dict(materials) if isinstance(materials, dict) else {1: materials}
-        if STIFF_ZONE_TAG in tagged.cell_names.values() and STIFF_ZONE_TAG not in mats:
-            if stiff_material is None:
-                from .materials import VonMises
-                top = mats[min(mats)]
-                stiff_material = VonMises(E=10 * top.E, nu=top.nu, yield_stress=1e12)
-            mats[STIFF_ZONE_TAG] = stiff_material
+        from rollsim.geometry import ROLLING_START
+        mats = with_stiff_zone(tagged, materials, stiff_material)
         self.d = wheel.diameter
         self.R = wheel.diameter / 2
         self.width = wheel.width

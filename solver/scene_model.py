@@ -192,16 +192,31 @@ def indentation_mesh(scene, comm: MPI.Comm):
 TIRE_GAP, TIRE_SHOULDER = 0.05, 0.08
 
 
-def pneumatic_mesh(scene, comm: MPI.Comm):
-    """The scene's pneumatic tire (quarter) over its quarter indentation block, one mesh of P2
-    hexahedra (``build_tire_on_soil``; the carcass meshed at the soil's fine size): (mesh, tire)."""
+#: a towed tire's start (axle) and the end of its stiff start zone, x / d: the tire lies over the
+#: block, 0.35 d of the zone ahead of the axle (as the rigid wheel's 0.4 / 0.75 d)
+TIRE_ROLLING_START, TIRE_STIFF_LENGTH = 0.6, 0.95
+
+
+def pneumatic_mesh(scene, comm: MPI.Comm, rolling: bool = False):
+    """The scene's pneumatic tire over its soil block, one mesh of P2 hexahedra
+    (``build_tire_on_soil``; the carcass meshed at the soil's fine size): (mesh, tire).  Pressed:
+    a quarter tire over the quarter indentation block; ``rolling``: a half tire at
+    ``TIRE_ROLLING_START`` d over a half rolling block with a stiff start zone to
+    ``TIRE_STIFF_LENGTH`` d, long enough for the travel and 1 d ahead."""
     d, w = scene.wheel.diameter, scene.wheel
     rho = min(TIRE_SHOULDER * d, 0.45 * w.width)
     if not w.t_tread < rho:
         raise ValueError(f"wheel.width: {w.width:g} m leaves no room for the tire's shoulder (radius {rho:g} m) "
                          f"beyond the tread thickness {w.t_tread:g} m")
-    tire = PneumaticTire(d, w.width, w.hub_diameter, rho, w.t_tread, cut="quarter", gap=TIRE_GAP * d)
-    block = indentation_block(d, depth=block_depth(scene), cut="quarter", layers=_layer_thicknesses(scene))
+    cut = "half" if rolling else "quarter"
+    tire = PneumaticTire(d, w.width, w.hub_diameter, rho, w.t_tread, cut=cut, gap=TIRE_GAP * d,
+                         x_centre=TIRE_ROLLING_START * d if rolling else 0.0)
+    if rolling:
+        block = rolling_block(d, length=TIRE_ROLLING_START + scene.loading.travel / d + 1.0, half_width=1.5,
+                              depth=block_depth(scene), cut="half", layers=_layer_thicknesses(scene),
+                              stiff_length=TIRE_STIFF_LENGTH)
+    else:
+        block = indentation_block(d, depth=block_depth(scene), cut="quarter", layers=_layer_thicknesses(scene))
     soil = MeshOptions.from_refinement(d, scene.model.elements_per_d, order=2, hexahedra=True)
     carcass = MeshOptions(soil.fine_size, soil.fine_size, 1.0, order=2)
     return build_tire_on_soil(comm, tire, block, soil, carcass), tire

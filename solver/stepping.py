@@ -36,7 +36,7 @@ import numpy as np
 
 from rollsim.log import get_logger
 
-__all__ = ["StepControl", "StepRecord", "ConvergedState", "SolverDivergedError", "RunInterrupted",
+__all__ = ["StepControl", "StepRecord", "ConvergedState", "SolverDivergedError", "RunInterrupted", "check_interrupt",
            "RelaxationFallback", "solve_load_path", "advance_with_fallback", "straight_path", "stop_on_signals",
            "settle_under_gravity"]
 
@@ -183,6 +183,14 @@ def _interrupt_signal(comm) -> str | None:
     if comm is not None:
         code = comm.allreduce(code, op=_mpi_max())
     return signal.Signals(code).name if code else None
+
+
+def check_interrupt(comm, where: str) -> None:
+    """Raise :class:`RunInterrupted` (at a step boundary, ``where``: e.g. "at travel 0.3 m")
+    when a signal asked the run to stop on any rank (collective)."""
+    stop = _interrupt_signal(comm)
+    if stop is not None:
+        raise RunInterrupted(f"interrupted by {stop} {where}; last converged state kept", None, [], stop)
 
 
 def settle_under_gravity(problem, unit_weight: float, K0=None) -> None:

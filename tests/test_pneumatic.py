@@ -20,10 +20,12 @@ from mpi4py import MPI
 
 from rollsim.cli import main
 
-from rollsim.geometry import MeshOptions, build_tire, build_tire_on_soil, indentation_block, pneumatic_tire
+from rollsim.geometry import (MeshOptions, build_tire, build_tire_on_soil, indentation_block, pneumatic_tire,
+                              rolling_block)
 from rollsim.solver import NeoHookean, StepControl, VonMises
 from rollsim.solver.carcass import Carcass
 from rollsim.solver.pneumatic import TIRE_PENALTY, PneumaticIndentation
+from rollsim.solver.pneumatic_rolling import PneumaticRolling
 
 D, PRESSURE, SIZE = 1.524, 450e3, 0.15
 CARCASS = NeoHookean(50e6, 0.45)
@@ -161,11 +163,12 @@ def test_pneumatic_scene_runs_end_to_end(comm, tmp_mpi_path):
     assert 4 * pressure @ area == pytest.approx(tire["wheel_load_N"], rel=0.1)
 
 
-def test_pneumatic_rolling_is_refused_with_the_key(comm, tmp_mpi_path, capsys):
-    scene = _example(tmp_mpi_path, protocol='"rolling-constant-load"', max_sinkage='"0.01 m"')
-    _scene_file(scene, scene.read_text().replace('max_sinkage = "0.01 m"', 'load = "50 kN"\ntravel = "1 m"'))
+def test_pneumatic_continuous_rolling_is_refused_with_the_key(comm, tmp_mpi_path, capsys):
+    scene = _example(tmp_mpi_path, protocol='"rolling-continuous"', max_sinkage='"0.01 m"')
+    _scene_file(scene, scene.read_text().replace('max_sinkage = "0.01 m"', 'max_sinkage = "0.01 m"\ntravel = "1 m"'))
     assert main(["run", str(scene), "--out", str(tmp_mpi_path / "roll")]) == 2
     assert comm.rank != 0 or "wheel.type" in capsys.readouterr().err        # rank 0 prints the error
+    assert not (tmp_mpi_path / "roll").exists()
 
 
 def _with_load(tmp, load: str, max_sinkage: str) -> pathlib.Path:
@@ -198,3 +201,61 @@ def test_rigid_indentation_to_a_load_is_refused_with_the_key(comm, tmp_mpi_path,
     assert main(["run", str(scene), "--out", str(tmp_mpi_path / "rigid")]) == 2
     assert comm.rank != 0 or "loading.load" in capsys.readouterr().err
     assert not (tmp_mpi_path / "rigid").exists()
+
+
+# ------------------------------------------------------------------------- towed tire
+def test_towed_tire_on_elastic_soil_rolls_free(comm):
+    """The half tire (450 kPa) pressed to 30 kN on an elastic soil (E = 200 MPa, mu = 0.5) and
+    towed 0.3 m in steps of 1/8 element: every step holds the load within 0.2 % and the axle
+    torque within 0.002 Q d; the soil's bottom carries the load (to 1e-6).  Nothing dissipates
+    but the tread's slip, so the towing force is nearly zero (measured: within +-0.5 % of the
+    load, mean 0.1 %), and the tire turns as a wheel whose rolling radius lies between its loaded
+    radius d/2 - deflection and d/2 (measured: 0.758 m, d/2 = 0.762 m, deflection 35 mm)."""
+    load = 30e3
+    tire = pneumatic_tire(D, cut="half", gap=0.03, x_centre=0.6 * D)
+    block = rolling_block(D, length=2.0, half_width=1.0, depth=0.8, stiff_length=0.95)
+    tm = build_tire_on_soil(comm, tire, block, MeshOptions.from_refinement(D, 6, order=2, hexahedra=True),
+                            MeshOptions(SIZE, SIZE, 1.0, order=2))
+    pr = PneumaticRolling(tm, tire, VonMises(E=200e6, nu=0.3, yield_stress=1e12), CARCASS, friction=0.5,
+                          penalty=TIRE_PENALTY)
+    pr.inflate(PRESSURE)
+    pr.touch()
+    assert pr.press_to_load(load, 0.004 * D, 0.1) == "ok"
+    deflection = pr.tire_state()["deflection_m"]
+    steps = []
+    pr.roll_at_load(load, 0.3, 0.125 * D / 6, on_step=steps.append)
+    assert len(steps) >= 8 and pr.travel == pytest.approx(0.3)
+    for st in steps:
+        assert abs(st.QV / load - 1) <= 1.01 * pr.load_rtol, st
+        assert abs(st.moment) <= 1.01 * pr.moment_rtol * load * D, st
+    w = fem.Function(pr.problem.V)
+    w.sub(2).interpolate(lambda x: np.where(np.isclose(x[2], -block.depth), 1.0, 0.0))
+    assert pr.factor * pr.problem.internal_force(w) == pytest.approx(pr.wheel_load(), rel=1e-6)
+    towing = np.array([st.QH for st in steps]) / load
+    assert np.abs(towing).max() < 0.02 and abs(towing.mean()) < 0.005, towing
+    radius = pr.rolling_radius(0.0)
+    assert D / 2 - deflection < radius < D / 2, (radius, deflection)
+
+
+def test_towed_tire_scene_runs_end_to_end(comm, tmp_mpi_path):
+    """``rollsim run`` of the towed-tire example (6 elements per d, 0.25 m of travel): exit 0; the
+    history holds the press and the rolled steps; summary.json has the tire's figures, the travel,
+    the rotation and the rolling radius; the load is held."""
+    text = (EXAMPLE.parent / "pneumatic_rolling.toml").read_text()
+    text = re.sub(r'(?m)^travel = .*$', 'travel = "0.25 m"', text) + "refinement = 6\n"
+    scene = _scene_file(tmp_mpi_path / "towed.toml", text)
+    out = tmp_mpi_path / "towed"
+    assert main(["run", str(scene), "--out", str(out), "--quiet"]) == 0
+    summary = json.loads((out / "summary.json").read_text())
+    assert summary["status"] == "ok", summary["reason"]
+    assert summary["travel_m"] == pytest.approx(0.25)
+    assert summary["rotation_rad"] > 0.2 / (D / 2)
+    assert summary["QV_N"] == pytest.approx(40e3, rel=3e-3)
+    assert summary["tire"]["sinkage_m"] > 0 and summary["tire"]["deflection_m"] > 0
+    assert summary["steady_state"]["reached"] is False
+    with (out / "history.csv").open() as f:
+        rows = list(csv.DictReader(f))
+    assert len(rows) == summary["steps"] and float(rows[-1]["travel_m"]) == pytest.approx(0.25)
+    assert [int(r["step"]) for r in rows] == list(range(1, len(rows) + 1))
+    for name in ["rolling.png", *summary["files"]["contact_pressure"]]:
+        assert (out / name).stat().st_size > 0, name

@@ -14,13 +14,41 @@ from ..regularisation import regularisation_summary
 from ..rundir import finish_run, history_row, make_run_directory, write_history
 from ..scene_model import layer_materials, relaxation_hint, solver_options, wheel_geometry
 
-__all__ = ["ProtocolRun", "run_protected", "REPORT_S_OVER_D"]
+__all__ = ["ProtocolRun", "run_protected", "heave_warnings", "REPORT_S_OVER_D", "HEAVE_TOLERANCE"]
 
 #: s/d values at which an indentation's Q_V is always computed (step boundaries; a pneumatic tire
 #: aims at them) and reported in summary.json
 REPORT_S_OVER_D = (0.01, 0.02, 0.03, 0.05, 0.08, 0.1)
 
 log = get_logger("run")
+
+#: heave (in d) beyond which a loaded wheel riding above, or a rut rising above, the undisturbed
+#: surface is reported by :func:`heave_warnings`
+HEAVE_TOLERANCE = 1e-3
+
+
+def heave_warnings(steps, x_soft: float | None, x_start: float, load: float, d: float,
+                   rut_depth: float | None = None, tolerance: float = HEAVE_TOLERANCE) -> list[str]:
+    """Plausibility of a constant-load roll on level ground: one line for the highest the wheel
+    rode above the undisturbed surface while carrying at least half of ``load`` (N) on the test
+    soil (beyond ``x_soft``, m), one for a rut that is a heave (``rut_depth`` < 0, m), each when
+    larger than ``tolerance`` d.  Without plastic dilation (psi = 0) neither is physical: the
+    rate-independent route is then suspect and a run relaxed along the whole path is the check."""
+    lines = []
+    x0 = x_soft if x_soft is not None else x_start
+    loaded = [st for st in steps if st.QV >= 0.5 * load and x_start + st.travel >= x0]
+    if loaded:
+        high = min(loaded, key=lambda st: st.sinkage)
+        if -high.sinkage > tolerance * d:
+            lines.append(f"the loaded wheel rode {-1e3 * high.sinkage:.3g} mm above the undisturbed surface "
+                         f"(travel {high.travel:.4g} m, Q_H = {high.QH / 1e3:.3g} kN)")
+    if rut_depth is not None and -rut_depth > tolerance * d:
+        lines.append(f"the rut is a heave of {-1e3 * rut_depth:.3g} mm")
+    if lines:
+        lines.append(f"heave under a rolled wheel is not physical without dilation (psi > 0): compare a run "
+                     f"relaxed along the whole path ([model] relaxation_length; dense sand: d/1500 = "
+                     f"{1e3 * d / 1500:.2g} mm)")
+    return lines
 
 
 def run_protected(body, comm: MPI.Comm, state) -> tuple[str, str, dict]:

@@ -13,7 +13,8 @@ from rollsim.log import get_logger
 
 from ..rolling import STEADY_MIN_TRAVEL, SteadyState, WheelRolling
 from ..stepping import SolverDivergedError
-from .base import RollingRun
+from .base import HEAVE_TOLERANCE, RollingRun, heave_warnings
+from .pneumatic import run_pneumatic_rolling
 
 __all__ = ["run_constant_load", "measure_rut", "heave_warnings", "STIFF_LENGTH", "HEAVE_TOLERANCE"]
 
@@ -23,35 +24,6 @@ log = get_logger("run")
 STIFF_LENGTH = 0.75
 #: displacement magnification of the rut picture
 RUT_PICTURE_SCALE = 5.0
-#: heave (in d) beyond which a loaded wheel riding above, or a rut rising above, the undisturbed
-#: surface is reported by :func:`heave_warnings`
-HEAVE_TOLERANCE = 1e-3
-
-
-def heave_warnings(steps, x_soft: float | None, x_start: float, load: float, d: float,
-                   rut_depth: float | None = None, tolerance: float = HEAVE_TOLERANCE) -> list[str]:
-    """Plausibility of a constant-load roll on level ground: one line for the highest the wheel
-    rode above the undisturbed surface while carrying at least half of ``load`` (N) on the test
-    soil (beyond ``x_soft``, m), one for a rut that is a heave (``rut_depth`` < 0, m), each when
-    larger than ``tolerance`` d.  Without plastic dilation (psi = 0) neither is physical: the
-    rate-independent route is then suspect and a run relaxed along the whole path is the check."""
-    lines = []
-    x0 = x_soft if x_soft is not None else x_start
-    loaded = [st for st in steps if st.QV >= 0.5 * load and x_start + st.travel >= x0]
-    if loaded:
-        high = min(loaded, key=lambda st: st.sinkage)
-        if -high.sinkage > tolerance * d:
-            lines.append(f"the loaded wheel rode {-1e3 * high.sinkage:.3g} mm above the undisturbed surface "
-                         f"(travel {high.travel:.4g} m, Q_H = {high.QH / 1e3:.3g} kN)")
-    if rut_depth is not None and -rut_depth > tolerance * d:
-        lines.append(f"the rut is a heave of {-1e3 * rut_depth:.3g} mm")
-    if lines:
-        lines.append(f"heave under a rolled wheel is not physical without dilation (psi > 0): compare a run "
-                     f"relaxed along the whole path ([model] relaxation_length; dense sand: d/1500 = "
-                     f"{1e3 * d / 1500:.2g} mm)")
-    return lines
-
-
 def measure_rut(roll: WheelRolling, steady: SteadyState | None, x_soft: float | None, contact_length: float) -> dict:
     """Rut depth and rebound from the surface profile on the wheel path once the wheel has been
     lifted off (:meth:`WheelRolling.lift`; collective).
@@ -86,7 +58,12 @@ def run_constant_load(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, 
     ``steady_min_travel`` m on the test soil, default ``STEADY_MIN_TRAVEL`` d) or ``loading.travel``.
     The summary reports the steady sinkage and ``Q_H``, the rut depth (mean settlement of the wheel
     path rolled in steady state, after the lift-off) and the rebound (sinkage - rut depth);
-    ``rut_profile.csv`` holds the profile.  ``block``: keywords of ``rolling_mesh``."""
+    ``rut_profile.csv`` holds the profile.  ``block``: keywords of ``rolling_mesh``.  A pneumatic
+    wheel runs :func:`~rollsim.solver.drivers.pneumatic.run_pneumatic_rolling` (no ``block``)."""
+    if scene.wheel.type == "pneumatic":
+        return run_pneumatic_rolling(scene, out_dir, comm, progress=progress, petsc_options=petsc_options,
+                                     write_fields=write_fields, penalty=penalty, steady_rtol=steady_rtol,
+                                     steady_qh_rtol=steady_qh_rtol, steady_min_travel=steady_min_travel)
     d, travel, load = scene.wheel.diameter, scene.loading.travel, scene.loading.load
     block = {"stiff_length": STIFF_LENGTH, **(block or {})}
     x_soft = block["stiff_length"] * d if block["stiff_length"] else None
