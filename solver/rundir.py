@@ -69,6 +69,13 @@ def write_history(out: pathlib.Path, rows, comm: MPI.Comm) -> None:
         atomic_write_text(out / "history.csv", history_csv(rows))
 
 
+def wheel_words(wheel) -> str:
+    """The scene's wheel in words: "rigid cylinder", "pneumatic tire (450 kPa)"."""
+    if wheel.type == "pneumatic":
+        return f"pneumatic tire ({wheel.inflation / 1e3:g} kPa)"
+    return f"rigid {wheel.shape}"
+
+
 def _pyplot():
     import matplotlib
     matplotlib.use("Agg")
@@ -96,7 +103,7 @@ def plot_force_sinkage(path: pathlib.Path, rows, scene, status: str) -> None:
     ax.grid(alpha=0.3)
     sec = ax.secondary_xaxis("top", functions=(lambda x: x / d, lambda r: r * d))
     sec.set_xlabel("s/d")
-    ax.set_title(f"rigid {scene.wheel.shape} d = {d:g} m, b = {scene.wheel.width:g} m"
+    ax.set_title(f"{wheel_words(scene.wheel)} d = {d:g} m, b = {scene.wheel.width:g} m"
                  + ("" if status == "ok" else f"  [{status}]"), fontsize=10)
     ax.legend(loc="lower right")
     fig.tight_layout()
@@ -168,7 +175,7 @@ def plot_travel(path: pathlib.Path, rows, scene, summary: dict, rut_csv: pathlib
     ax2.set_ylabel("force (kN)")
     ax2.legend(fontsize=8)
     d = scene.wheel.diameter
-    fig.suptitle(f"{summary['protocol']}: rigid {scene.wheel.shape} d = {d:g} m, b = {scene.wheel.width:g} m, "
+    fig.suptitle(f"{summary['protocol']}: {wheel_words(scene.wheel)} d = {d:g} m, b = {scene.wheel.width:g} m, "
                  f"mu = {scene.wheel.friction:g}" + ("" if summary["status"] == "ok" else f" [{summary['status']}]"),
                  fontsize=10)
     fig.tight_layout()
