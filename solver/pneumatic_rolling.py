@@ -12,7 +12,7 @@ reaction moment about the axle vanishes::
 included; the air's pressure on the circular rim has no moment about the axle).  ``G`` is solved
 by a quasi-Newton loop around the soil-and-tire Newton solve: its 2 x 2 Jacobian is taken by
 differences at the first rolled step and updated (Broyden) at every move after, so a step
-usually takes 2-3 solves, each started from the last one's displacement with the plastic
+usually takes 2 solves, each started from the last one's displacement with the plastic
 history of the last converged step.  A step whose solve fails or whose balance is not found is
 retried with half the travel.
 """
@@ -77,6 +77,11 @@ class PneumaticRolling(PneumaticIndentation):
         """The hub's travel from its start, m."""
         return float(self.hub[0])
 
+    @property
+    def cuts(self) -> int:
+        """Step cuts so far, of the press and of the rolled steps."""
+        return int(sum(st.cuts for st in self.steps) + sum(st.cuts for st in self.roll_steps))
+
     def axle_moment(self) -> float:
         """Moment about the axle of the bead's reactions (whole wheel, N m; positive about +y)."""
         arm = self._bead_arm
@@ -86,10 +91,6 @@ class PneumaticRolling(PneumaticIndentation):
         w[:] = 0.0
         w[self._bead, 0], w[self._bead, 2] = dz, -dx
         return self.factor * self.problem.internal_force(self._spin, every_term=True)
-
-    def towing_force(self) -> float:
-        """Horizontal force of the tire on the soil, N (whole wheel; positive: resisting travel in +x)."""
-        return -self.factor * float(self.contact.forces().force[0])
 
     def _balance(self, load: float) -> np.ndarray:
         return np.array([(self.wheel_load() - load) / load, self.axle_moment() / (load * self.diameter)])
@@ -114,9 +115,9 @@ class PneumaticRolling(PneumaticIndentation):
                   " ".join(f"{r:.1e}" for r in rep.residual_norms))
         return rep.converged, g, rep.iterations
 
-    def _rolled_step(self, x: float, load: float, max_solves: int = 16):
-        """Balance the tire at travel ``x`` from the last converged state: (outcome, iterations,
-        solves), outcome ``"ok"``, ``"newton"`` (a solve failed) or ``"balance"`` (not found in
+    def _rolled_step(self, x: float, load: float, max_solves: int = 16) -> tuple[str, int]:
+        """Balance the tire at travel ``x`` from the last converged state: (outcome, Newton
+        iterations), outcome ``"ok"``, ``"newton"`` (a solve failed) or ``"balance"`` (not found in
         ``max_solves`` solves).  Leaves the balanced iterate in the problem (not committed)."""
         x0, q0 = self.travel, self._pose()
         q = q0 + self._rate * (x - x0)
@@ -124,7 +125,7 @@ class PneumaticRolling(PneumaticIndentation):
         ok, g, n = self._solve_at(x, q, load)
         its, solves = its + n, solves + 1
         if not ok:
-            return "newton", its, solves
+            return "newton", its
         if self._jacobian is None:           # by differences, once: a lower hub, a forward turn
             J = np.zeros((2, 2))
             for k, delta in enumerate((-1e-3 * self.diameter, 1e-3)):
@@ -133,7 +134,7 @@ class PneumaticRolling(PneumaticIndentation):
                 ok, gk, n = self._solve_at(x, q + dq, load)
                 its, solves = its + n, solves + 1
                 if not ok:
-                    return "newton", its, solves
+                    return "newton", its
                 J[:, k] = (gk - g) / delta
             self._jacobian = J
             self._set_pose(x, q)
@@ -141,20 +142,20 @@ class PneumaticRolling(PneumaticIndentation):
         while not self._balanced(g):
             if solves >= max_solves:
                 log.debug("  tire balance not found in %d solves: G = %s", solves, g)
-                return "balance", its, solves
+                return "balance", its
             try:
                 dq = -np.linalg.solve(J, g)
             except np.linalg.LinAlgError:
-                return "balance", its, solves
+                return "balance", its
             dq[0] = float(np.clip(dq[0], -0.01 * self.diameter, 0.01 * self.diameter))
             dq[1] = float(np.clip(dq[1], -0.02, 0.02))
             ok, g_new, n = self._solve_at(x, q + dq, load)
             its, solves = its + n, solves + 1
             if not ok:
-                return "newton", its, solves
+                return "newton", its
             J += np.outer(g_new - g - J @ dq, dq) / float(dq @ dq)     # Broyden
             q, g = q + dq, g_new
-        return "ok", its, solves
+        return "ok", its
 
     def roll_at_load(self, load: float, travel: float, step: float, *, x_soft: float | None = None,
                      steady_rtol: float = 0.02, steady_qh_rtol: float = 0.05, min_travel: float = 0.0,
@@ -178,8 +179,8 @@ class PneumaticRolling(PneumaticIndentation):
             check_interrupt(self.comm, f"at travel {self.travel:.4g} m")
             x0, q0 = self.travel, self._pose()
             x = min(x0 + dx, travel)
-            t0 = time.perf_counter()
-            outcome, its, solves = self._rolled_step(x, load)
+            t0, solves0 = time.perf_counter(), pb.timings["linear_solves"]
+            outcome, its = self._rolled_step(x, load)
             if outcome != "ok":
                 pb.restore()
                 self._set_pose(x0, q0)
@@ -194,14 +195,15 @@ class PneumaticRolling(PneumaticIndentation):
                 continue
             pb.commit()
             self._rate = (self._pose() - q0) / (x - x0)       # the next step's predictor
-            st = self._record(x - x0, self.hub_rotation - q0[1], its, solves, cuts, time.perf_counter() - t0)
+            st = self._record(x - x0, self.hub_rotation - q0[1], its, int(pb.timings["linear_solves"] - solves0),
+                              cuts, time.perf_counter() - t0)
             streak += 1
             cap = math.inf if streak >= 5 else cap
             cuts, dx = 0, min(step, 1.5 * dx, cap)
             if on_step is not None:
                 on_step(st)
             if found is None:
-                window = max(self.contact_length(st), 3 * self.contact.h)
+                window = max(self.contact_length(), 3 * self.contact.h)
                 found = detect_steady_state(self.roll_steps, 0.0, x_soft - self.x_start, window, steady_rtol,
                                             steady_qh_rtol, min_travel)
                 if found is not None:
@@ -211,7 +213,7 @@ class PneumaticRolling(PneumaticIndentation):
         if found is not None:
             return found
         last = self.roll_steps[-1]
-        return SteadyState(False, last.travel, last.sinkage, last.QV, last.QH, self.contact_length(last),
+        return SteadyState(False, last.travel, last.sinkage, last.QV, last.QH, self.contact_length(),
                            math.nan, math.nan)
 
     def rolling_radius(self, x_from: float) -> float | None:
@@ -222,8 +224,8 @@ class PneumaticRolling(PneumaticIndentation):
             return None
         return (steps[-1].travel - steps[0].travel) / (steps[-1].rotation - steps[0].rotation)
 
-    def contact_length(self, st: RollingStep | None = None) -> float:
-        """Contact length along the travel, m (of the current state)."""
+    def contact_length(self) -> float:
+        """Contact length along the travel now, m (at least one contact element)."""
         return max(self.tire_state()["contact_length_m"], self.contact.h)
 
     def _record(self, dx: float, dth: float, its: int, solves: int, cuts: int, wall: float) -> RollingStep:

@@ -142,7 +142,7 @@ def run_pneumatic_rolling(scene, out_dir, comm: MPI.Comm, *, progress: bool = Tr
 
     status, reason, diagnostics = run.execute(
         rolling, lambda: {"last_converged_travel_m": pn.travel, "last_converged_sinkage_m": -pn.lowest_point(),
-                          "step_cuts_total": pn.cuts + sum(st.cuts for st in pn.roll_steps)})
+                          "step_cuts_total": pn.cuts})
     results = {"tire": _close(run, pn), "travel_m": pn.travel, "rotation_rad": pn.hub_rotation,
                "rolling_radius_m": pn.rolling_radius(x_soft),
                "moment_Nm": pn.roll_steps[-1].moment if pn.roll_steps else 0.0,
