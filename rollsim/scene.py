@@ -86,7 +86,7 @@ class ModelSpec:
     refinement: float | None = None   # elements per wheel diameter under the wheel; None: the preset's
     kinematics: str = DEFAULT_KINEMATICS
     linear_solver: str = DEFAULT_LINEAR_SOLVER
-    volumetric_strain: str = DEFAULT_VOLUMETRIC_STRAIN   # parse_scene: default_volumetric_strain(protocol, accuracy)
+    volumetric_strain: str = DEFAULT_VOLUMETRIC_STRAIN   # parse_scene: default_volumetric_strain(protocol, ...)
     relaxation_length: float = DEFAULT_RELAXATION_LENGTH   # m of the wheel's path; > 0: Duvaut-Lions
     relaxation_fallback: float = DEFAULT_RELAXATION_FALLBACK   # m; a failed vertical move relaxed; 0: off
     travel_relaxation_fallback: float = DEFAULT_TRAVEL_RELAXATION_FALLBACK   # m; a failed roll restarts relaxed
@@ -336,7 +336,7 @@ def parse_scene(data: dict) -> Scene:
     model_table = _Table(top.raw("model", {}), "model", top.notes)
     accuracy = model_table.choice("accuracy", ACCURACIES, default=DEFAULT_ACCURACY)
     refinement = model_table.quantity("refinement", DIMENSIONLESS, default=None)
-    strain = default_volumetric_strain(loading.protocol, accuracy, refinement)
+    strain = default_volumetric_strain(loading.protocol, accuracy, refinement, wheel.type)
     model = ModelSpec(accuracy=accuracy, refinement=refinement,
                       kinematics=model_table.choice("kinematics", KINEMATICS, default=DEFAULT_KINEMATICS),
                       linear_solver=model_table.choice("linear_solver", LINEAR_SOLVERS, default=DEFAULT_LINEAR_SOLVER),

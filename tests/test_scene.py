@@ -42,6 +42,9 @@ def test_examples_load():
     assert rolling.loading.load == 133.5e3 and rolling.model.accuracy == "fast"
     assert rolling.model.volumetric_strain == "pointwise"           # rolling on the fast preset
     assert rolling.model.relaxation_length == pytest.approx(1e-3)    # the non-associated sand needs it
+    towed = scenes["pneumatic_rolling.toml"]
+    assert towed.wheel.type == "pneumatic" and towed.loading.protocol == "rolling-constant-load"
+    assert towed.model.accuracy == "fast" and towed.model.volumetric_strain == "cell-average"   # hexahedra: Q2-P1
 
 
 def test_si_conversion_and_defaults():
