@@ -29,6 +29,20 @@ def saved_results(paths) -> list[dict]:
             for r in json.loads(pathlib.Path(path).read_text())["results"]]
 
 
+def add_results_arguments(parser: argparse.ArgumentParser) -> None:
+    """``--table JSON ...`` (print the table of saved results and stop) and ``--out`` (the JSON file
+    a sweep resumes from and saves to after each run)."""
+    parser.add_argument("--table", nargs="+", metavar="JSON", help="print the table of saved results and stop")
+    parser.add_argument("--out")
+
+
+def show_table(comm, table, results: list[dict]) -> int:
+    """Print ``table(results)`` from rank 0; returns 0 (a benchmark's exit status)."""
+    if comm.rank == 0:
+        print(table(results), flush=True)
+    return 0
+
+
 def run_in_mpirun(ranks: int, argv: list[str], out: pathlib.Path) -> dict | None:
     """Run ``python argv`` under ``mpirun -n ranks`` (a process of its own: its wall time and memory
     alone) and return the JSON it wrote to ``out`` (then removed), or ``None`` after a message

@@ -34,7 +34,7 @@ import time
 
 from mpi4py import MPI
 
-from _bench import dump_json, saved_results
+from _bench import add_results_arguments, dump_json, saved_results, show_table
 
 from rollsim.geometry import MeshOptions, PlaneStrainBlock, build_plane_strain_block
 from rollsim.scene import parse_scene
@@ -282,14 +282,11 @@ def main(argv=None) -> int:
     p.add_argument("--guard", type=float, default=300.0, help="wall-time guard per cell, s")
     p.add_argument("--model", nargs="+", default=[], metavar="KEY=VALUE",
                    help='[model] keys set in every scene, e.g. relaxation_length="0.01 mm" (default: none)')
-    p.add_argument("--table", nargs="+", metavar="JSON", help="print the table of saved results and stop")
-    p.add_argument("--out")
+    add_results_arguments(p)
     args = p.parse_args(argv)
     comm = MPI.COMM_WORLD
     if args.table:
-        if comm.rank == 0:
-            print(table(saved_results(args.table)))
-        return 0
+        return show_table(comm, table, saved_results(args.table))
     rows = saved_results(args.out)
     model = parse_model(args.model)
     done = {(r["cell"], settings(r)) for r in rows}
@@ -304,9 +301,7 @@ def main(argv=None) -> int:
                   f"{row['steps']} steps, {row['newton_iterations']} its, {row['cuts']} cuts, "
                   f"{row['time_s']:.1f} s {row['message'][:100]}", flush=True)
         dump_json(comm, args.out, {"args": vars(args), "results": rows})
-    if comm.rank == 0:
-        print(table(rows))
-    return 0
+    return show_table(comm, table, rows)
 
 
 if __name__ == "__main__":

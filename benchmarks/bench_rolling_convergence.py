@@ -40,7 +40,7 @@ import numpy as np
 from mpi4py import MPI
 
 import bench_rolling_protocols as protocols
-from _bench import ORDER_RANGE, dump_json, observed_order, saved_results
+from _bench import ORDER_RANGE, add_results_arguments, dump_json, observed_order, saved_results, show_table
 
 from rollsim.solver.options import VOLUMETRIC_STRAINS
 
@@ -213,10 +213,9 @@ def main(argv=None) -> int:
     p.add_argument("--travel", type=float, default=TRAVEL, help="constant-load travel limit, d")
     p.add_argument("--hexahedra", action="store_true",
                    help="structured 27-node hexahedra (B-bar: Q2-P1; kept apart in the table)")
-    p.add_argument("--table", nargs="+", metavar="JSON", help="print the table of saved results and stop")
+    add_results_arguments(p)
     p.add_argument("--figure", type=pathlib.Path,
                    help="with --table: draw the sinkage along the travel of every level to this file")
-    p.add_argument("--out")
     args = p.parse_args(argv)
     comm = MPI.COMM_WORLD
     if args.table:
@@ -250,9 +249,7 @@ def main(argv=None) -> int:
                       f"s = {1e3 * (s if s else math.nan):.2f} mm, {cl['dofs']} dofs, "
                       f"{cl['newton_iterations']} Newton its, {cl['time_s']:.0f} s", flush=True)
             dump_json(comm, args.out, {"args": vars(args), "results": results})
-    if comm.rank == 0:
-        print(table(results))
-    return 0
+    return show_table(comm, table, results)
 
 
 if __name__ == "__main__":

@@ -26,7 +26,7 @@ import tempfile
 import numpy as np
 from mpi4py import MPI
 
-from _bench import dump_json, saved_results
+from _bench import add_results_arguments, dump_json, saved_results, show_table
 
 from rollsim.scene import load_scene
 from rollsim.solver.options import VOLUMETRIC_STRAINS
@@ -126,14 +126,11 @@ def main(argv=None) -> int:
                    help="volumetric strain of both wheels (default: the scene's, per protocol and preset)")
     p.add_argument("--settled", type=float, default=0.75,
                    help="the mean is over the steps with the axle this far (d) past the stiff zone")
-    p.add_argument("--table", nargs="+", metavar="JSON", help="print the table of saved results and stop")
-    p.add_argument("--out")
+    add_results_arguments(p)
     args = p.parse_args(argv)
     comm = MPI.COMM_WORLD
     if args.table:
-        if comm.rank == 0:
-            print(table(saved_results(args.table)))
-        return 0
+        return show_table(comm, table, saved_results(args.table))
     results = saved_results(args.out)
     for n in args.refinement:
         for wheel in args.wheel:
@@ -146,9 +143,7 @@ def main(argv=None) -> int:
             if comm.rank == 0:
                 print(json.dumps({k: row[k] for k in ("wheel", "refinement", "status", "time_s")}), flush=True)
             dump_json(comm, args.out, {"args": vars(args), "results": results})
-    if comm.rank == 0:
-        print(table(results))
-    return 0
+    return show_table(comm, table, results)
 
 
 if __name__ == "__main__":

@@ -148,6 +148,16 @@ class PneumaticIndentation(StepCounts):
         """Vertical force of the soil on the whole tire, N."""
         return self.factor * float(self.contact.forces().force[2])
 
+    def _patch_length(self, x: np.ndarray) -> float:
+        """Length along the travel of the contact patch whose points (this rank's) are ``x``, m
+        (0: no contact; collective)."""
+        x_axle = self.x_centre + self.hub[0]
+        ahead = self.comm.allreduce(float((x[:, 0] - x_axle).max(initial=-np.inf)), op=MPI.MAX)
+        behind = self.comm.allreduce(float((x[:, 0] - x_axle).min(initial=np.inf)), op=MPI.MIN)
+        if not np.isfinite(ahead):
+            return 0.0
+        return 2 * ahead if self.quarter else ahead - behind     # the quarter model holds x >= the axle only
+
     def tire_state(self) -> dict:
         """The tire now (SI, whole wheel; collective): ``sinkage_m``; ``hub_displacement_m``, the
         hub's travel since the inflated tire touched the soil; ``deflection_m``, the loss of loaded
@@ -166,12 +176,7 @@ class PneumaticIndentation(StepCounts):
         x = self.contact.contact_points()[0]
         comm = self.comm
         x_axle = self.x_centre + self.hub[0]
-        ahead = comm.allreduce(float((x[:, 0] - x_axle).max(initial=-np.inf)), op=MPI.MAX)
-        behind = comm.allreduce(float((x[:, 0] - x_axle).min(initial=np.inf)), op=MPI.MIN)
-        if not np.isfinite(ahead):
-            length = 0.0
-        else:                                  # the quarter model holds x >= the axle only
-            length = 2 * ahead if self.quarter else ahead - behind
+        length = self._patch_length(x)
         area = self.factor * self.contact.contact_area()
         hub = 0.0 if self.hub_at_touch is None else self.hub_at_touch - float(self.hub[2])
         tread = np.abs(x[:, 1]) < self.tread_half_width          # the fit of z = z_0 + r2 / d_e

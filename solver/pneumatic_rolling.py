@@ -226,7 +226,7 @@ class PneumaticRolling(PneumaticIndentation):
 
     def contact_length(self) -> float:
         """Contact length along the travel now, m (at least one contact element)."""
-        return max(self.tire_state()["contact_length_m"], self.contact.h)
+        return max(self._patch_length(self.contact.contact_points()[0]), self.contact.h)
 
     def _record(self, dx: float, dth: float, its: int, solves: int, cuts: int, wall: float) -> RollingStep:
         F = self.contact.forces()

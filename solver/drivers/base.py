@@ -221,6 +221,24 @@ class ProtocolRun:
                 "files": {"history": "history.csv", "plot": "force_sinkage.png",
                           "fields": ["fields/fields.xdmf", "fields/deformed.xdmf"] if self.write_fields else []}}
 
+    def warn_heave(self, summary: dict, steps, x_soft: float | None, x_start: float,
+                   rut_depth: float | None = None) -> None:
+        """Put :func:`heave_warnings` of a constant-load roll (``steps``) into ``summary`` and log them."""
+        summary["warnings"] = heave_warnings(steps, x_soft, x_start, self.scene.loading.load, self.d, rut_depth)
+        for line in summary["warnings"]:
+            log.warning("%s", line)
+
+    def plot_travel(self, summary: dict) -> None:
+        """``rolling.png`` (sinkage, rut and forces against travel) from rank 0, listed in
+        ``summary["files"]``; never fatal."""
+        summary["files"]["travel_plot"] = "rolling.png"
+        if self.root and self.rows:
+            from ..rundir import plot_travel
+            try:
+                plot_travel(self.out / "rolling.png", self.rows, self.scene, summary, self.out / "rut_profile.csv")
+            except Exception as err:  # noqa: BLE001 - a plot must not lose the run
+                log.warning("travel plot failed: %s", err)
+
     def finish(self, summary: dict, diagnostics: dict) -> dict:
         """Write history.csv, the force-sinkage plot and summary.json (last); returns ``summary``."""
         if diagnostics:
@@ -276,12 +294,3 @@ class RollingRun(ProtocolRun):
         if self.roll.travel_failures:
             summary["model"]["rate_independent_travel_failed_at_m"] = list(self.roll.travel_failures)
         return summary
-
-    def plot_travel(self, summary: dict) -> None:
-        """``rolling.png`` (sinkage, rut and forces against travel) from rank 0; never fatal."""
-        if self.root and self.rows:
-            from ..rundir import plot_travel
-            try:
-                plot_travel(self.out / "rolling.png", self.rows, self.scene, summary, self.out / "rut_profile.csv")
-            except Exception as err:  # noqa: BLE001 - a plot must not lose the run
-                log.warning("travel plot failed: %s", err)

@@ -25,9 +25,9 @@ from ..materials import NeoHookean
 from ..pneumatic import TIRE_PENALTY, PneumaticIndentation
 from ..pneumatic_rolling import PneumaticRolling
 from ..rolling import STEADY_MIN_TRAVEL
-from ..rundir import TravelProgress, plot_travel, write_contact_pressure
+from ..rundir import TravelProgress, write_contact_pressure
 from ..scene_model import TIRE_STIFF_LENGTH, pneumatic_mesh
-from .base import REPORT_S_OVER_D, ProtocolRun, heave_warnings
+from .base import REPORT_S_OVER_D, ProtocolRun
 
 __all__ = ["run_pneumatic_indentation", "run_pneumatic_rolling", "SINKAGE_STEP", "TRAVEL_STEP"]
 
@@ -152,17 +152,10 @@ def run_pneumatic_rolling(scene, out_dir, comm: MPI.Comm, *, progress: bool = Tr
         results.update(steady_state=dataclasses.asdict(steady), sinkage_m=steady.sinkage, QH_N=steady.QH,
                        QV_N=steady.QV)
     summary = run.summary(status, reason, **results)
-    summary["warnings"] = heave_warnings(pn.roll_steps, x_soft, tire.x_centre, load, d)
-    for line in summary["warnings"]:
-        log.warning("%s", line)
+    run.warn_heave(summary, pn.roll_steps, x_soft, tire.x_centre)
     summary["model"].update(x_start_m=tire.x_centre, stiff_zone_end_m=x_soft, load_rtol=pn.load_rtol,
                             moment_rtol=pn.moment_rtol, steady_rtol=steady_rtol, steady_qh_rtol=steady_qh_rtol,
                             steady_min_travel_m=min_travel, travel_step_m=step)
     _files(summary, write_fields)
-    if run.root and pn.roll_steps:
-        summary["files"]["travel_plot"] = "rolling.png"
-        try:
-            plot_travel(run.out / "rolling.png", run.rows, scene, summary, run.out / "rut_profile.csv")
-        except Exception as err:  # noqa: BLE001 - a plot must not lose the run
-            log.warning("travel plot failed: %s", err)
+    run.plot_travel(summary)
     return run.finish(summary, diagnostics)

@@ -116,12 +116,9 @@ def run_constant_load(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, 
         summary["files"]["rut_profile"] = "rut_profile.csv"
     elif outcome["lift_failure"]:
         summary.update(rut_depth_m=None, rebound_m=None, rut_note=f"lift-off failed: {outcome['lift_failure']}")
-    summary["warnings"] = heave_warnings(roll.steps, x_soft, roll.x_start, load, d, summary.get("rut_depth_m"))
-    for line in summary["warnings"]:
-        log.warning("%s", line)
+    run.warn_heave(summary, roll.steps, x_soft, roll.x_start, summary.get("rut_depth_m"))
     if write_fields:
         summary["files"]["rut_picture"] = "rut.png"
-    summary["files"]["travel_plot"] = "rolling.png"
     run.plot_travel(summary)
     return run.finish(summary, diagnostics)
 

@@ -58,6 +58,5 @@ def run_continuous(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, pet
     run.close_fields()
     summary = run.summary(status, reason)
     summary["model"].update(initial_sinkage_m=s0, ramp_m=ramp_length, ramp_rate=rate, ramp_slow_enough=advice is None)
-    summary["files"]["travel_plot"] = "rolling.png"
     run.plot_travel(summary)
     return run.finish(summary, diagnostics)
