@@ -53,7 +53,7 @@ LENGTH, TRAVEL = 2.6, 1.5
 FALLBACK_ROUTE = "started over relaxed"
 #: values of the run keys that results saved before the key existed were run with
 DEFAULTS = {"relaxation_length_mm": 0.0, "fallbacks": False, "block_length_d": LENGTH, "travel_d": TRAVEL,
-            "cells": "tetrahedra"}
+            "cell_type": "tetrahedra"}
 
 
 def block_args(length: float = LENGTH, travel: float = TRAVEL) -> list[str]:
@@ -95,7 +95,7 @@ def formulation(r: dict) -> str:
     route = r.get("fallbacks")
     if route:       # True: saved when a failed roll was relaxed over 0.1 d stretches only
         text += ", fallbacks over 0.1 d stretches" if route is True else f", fallback {route}"
-    if r.get("cells", "tetrahedra") == "hexahedra":
+    if r.get("cell_type", "tetrahedra") == "hexahedra":
         text += ", Q2-P1 hexahedra" if r["strain"] == "cell-average" else ", Q2 hexahedra"
     length, travel = r.get("block_length_d", LENGTH), r.get("travel_d", TRAVEL)
     if (length, travel) != (LENGTH, TRAVEL):
@@ -231,7 +231,7 @@ def main(argv=None) -> int:
             run = {"soil": args.soil, "strain": strain, "refinement": n,
                    "relaxation_length_mm": args.relaxation_length, "fallbacks": args.fallbacks and FALLBACK_ROUTE,
                    "block_length_d": args.length, "travel_d": args.travel,
-                   "cells": "hexahedra" if args.hexahedra else "tetrahedra"}
+                   "cell_type": "hexahedra" if args.hexahedra else "tetrahedra"}
             if any(all(r.get(k, DEFAULTS.get(k, 0.0)) == v for k, v in run.items()) for r in results):
                 if comm.rank == 0:
                     print(f"{formulation(run)}, {n:g} elements / d: in {args.out}, not solved again", flush=True)

@@ -58,6 +58,27 @@ def test_rolling_convergence_resumes_and_keeps_regularised_runs_apart(benchmarks
 
 
 @pytest.mark.serial
+def test_rolling_convergence_keeps_hexahedra_apart_from_the_cell_count(benchmarks, tmp_path, monkeypatch, capsys):
+    """A run's cell count (``cells``) does not hide its cell type: a saved level of either type
+    is found again, and the hexahedra are labelled apart."""
+    convergence, _ = benchmarks
+    out = tmp_path / "levels.json"
+    out.write_text(json.dumps({"results": [_level(6.0, 0.016, cells=1466),
+                                           _level(6.0, 0.015, cells=512, cell_type="hexahedra")]}))
+
+    def must_not_solve(*args, **kwargs):
+        raise AssertionError("a saved level was solved again")
+
+    monkeypatch.setattr(convergence.protocols, "constant_load", must_not_solve)
+    for extra in ([], ["--hexahedra"]):
+        assert convergence.main(["--soil", "case5", "--refinement", "6", "--volumetric-strain", "cell-average",
+                                 "--out", str(out)] + extra) == 0
+    text = capsys.readouterr().out
+    assert text.count("not solved again") == 2
+    assert "| case5 | cell-average | 6 |" in text and "| case5 | cell-average, Q2-P1 hexahedra | 6 |" in text
+
+
+@pytest.mark.serial
 def test_rolling_convergence_keeps_the_sinkage_along_the_travel(benchmarks, tmp_path, monkeypatch):
     """A solved level is saved with its (travel, sinkage) curve, not its forces."""
     convergence, _ = benchmarks
