@@ -30,8 +30,8 @@ from rollsim.geometry.tire import TIRE_CELL_TAGS
 from rollsim.log import get_logger
 
 from .pneumatic import PneumaticIndentation
-from .rolling import RollingStep, SteadyState, detect_steady_state, with_stiff_zone
-from .stepping import SolverDivergedError, check_interrupt
+from .rolling import RollingStep, SteadyState, detect_steady_state, surface_profile, with_stiff_zone
+from .stepping import SolverDivergedError, StepControl, check_interrupt
 
 __all__ = ["PneumaticRolling", "ROLLING_PETSC_OPTIONS"]
 
@@ -223,6 +223,24 @@ class PneumaticRolling(PneumaticIndentation):
         if len(steps) < 2 or not steps[-1].rotation > steps[0].rotation:
             return None
         return (steps[-1].travel - steps[0].travel) / (steps[-1].rotation - steps[0].rotation)
+
+    @property
+    def position(self) -> float:
+        """x of the axle now, m."""
+        return self.x_centre + float(self.hub[0])
+
+    def surface_profile(self) -> tuple[np.ndarray, np.ndarray]:
+        """The soil surface on the mid-plane: :func:`~rollsim.solver.rolling.surface_profile` (the
+        tire's nodes lie above the undisturbed surface in the reference mesh)."""
+        return surface_profile(self.problem, self.comm, self.diameter)
+
+    def lift(self) -> list:
+        """Lift the hub vertically until the tire is clear of the soil (displacement control in
+        four steps, by the sinkage plus the deflection plus 0.1 % of the radius): the carcass
+        recovers its shape, the soil rebounds and keeps only the permanent rut."""
+        state = self.tire_state()
+        rise = max(state["sinkage_m"], 0.0) + max(state["deflection_m"], 0.0) + 5e-4 * self.diameter
+        return self.press(-rise, StepControl(t_end=1.0, dt=0.25, dt_min=1e-3, dt_max=0.25, max_cuts=8))
 
     def contact_length(self) -> float:
         """Contact length along the travel now, m (at least one contact element)."""

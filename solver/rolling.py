@@ -34,6 +34,7 @@ from dataclasses import dataclass, replace
 from typing import Callable
 
 import numpy as np
+from mpi4py import MPI
 
 from rollsim.log import get_logger
 
@@ -45,7 +46,7 @@ from .stepping import (RelaxationFallback, SolverDivergedError, StepControl, adv
                        straight_path)
 
 __all__ = ["WheelRolling", "RollingStep", "with_stiff_zone", "SteadyState", "detect_steady_state",
-           "DEFAULT_ROLL_CONTROL", "STEADY_MIN_TRAVEL"]
+           "surface_profile", "DEFAULT_ROLL_CONTROL", "STEADY_MIN_TRAVEL"]
 
 log = get_logger("solver")
 
@@ -78,6 +79,24 @@ class RollingStep:
     cuts: int
     plastic: int
     time: float
+
+
+def surface_profile(problem, comm: MPI.Comm, length: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(x, settlement)`` of the soil surface on the mid-plane (nodes at y = 0, z = 0 of the
+    reference mesh) of ``problem``'s last converged state, m, sorted by x, identical on all ranks
+    (settlement > 0 downwards, relative to the state after gravity; ``length``: the scale of the
+    node search, m)."""
+    V = problem.V
+    n = V.dofmap.index_map.size_local
+    bs = V.dofmap.index_map_bs
+    X = V.tabulate_dof_coordinates()[:n]
+    tol = 1e-8 * length
+    on_line = (np.abs(X[:, 1]) < tol) & (np.abs(X[:, 2]) < tol)
+    uz = problem.u_n.x.array[: n * bs].reshape(n, bs)[on_line, -1]
+    xs = np.concatenate(comm.allgather(X[on_line, 0]))
+    ws = np.concatenate(comm.allgather(-uz))
+    xs, keep = np.unique(np.round(xs, 12), return_index=True)
+    return xs, ws[keep]
 
 
 @dataclass
@@ -567,20 +586,8 @@ class WheelRolling:
         return max(st.contact_area / self.width, self.contact.h)
 
     def surface_profile(self) -> tuple[np.ndarray, np.ndarray]:
-        """``(x, settlement)`` of the soil surface on the wheel's mid-plane (y = 0, z = 0), m, sorted
-        by x, identical on all ranks (settlement > 0 downwards, relative to the state after gravity)."""
-        pb = self.problem
-        V = pb.V
-        n = V.dofmap.index_map.size_local
-        bs = V.dofmap.index_map_bs
-        X = V.tabulate_dof_coordinates()[:n]
-        tol = 1e-8 * self.d
-        on_line = (np.abs(X[:, 1]) < tol) & (np.abs(X[:, 2]) < tol)
-        uz = pb.u_n.x.array[: n * bs].reshape(n, bs)[on_line, -1]
-        xs = np.concatenate(self.comm.allgather(X[on_line, 0]))
-        ws = np.concatenate(self.comm.allgather(-uz))
-        xs, keep = np.unique(np.round(xs, 12), return_index=True)
-        return xs, ws[keep]
+        """The soil surface on the wheel's mid-plane: :func:`surface_profile`."""
+        return surface_profile(self.problem, self.comm, self.d)
 
     _rolling = False
     _last_dx = 0.0

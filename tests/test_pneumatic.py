@@ -259,3 +259,10 @@ def test_towed_tire_scene_runs_end_to_end(comm, tmp_mpi_path):
     assert [int(r["step"]) for r in rows] == list(range(1, len(rows) + 1))
     for name in ["rolling.png", *summary["files"]["contact_pressure"]]:
         assert (out / name).stat().st_size > 0, name
+    # lifted off at the end (the tire's figures are those before): the elastic stiff zone it rolled
+    # on springs back, and the path on the test soil is too short for a rut
+    profile = np.loadtxt(out / summary["files"]["rut_profile"], delimiter=",", skiprows=1)
+    x0 = summary["model"]["x_start_m"]
+    rolled = (profile[:, 0] > x0) & (profile[:, 0] < x0 + summary["travel_m"])
+    assert rolled.sum() >= 2 and np.abs(profile[rolled, 1]).max() < 0.1 * summary["tire"]["sinkage_m"]
+    assert summary["rut_depth_m"] is None and "not rolled far enough" in summary["rut_note"]

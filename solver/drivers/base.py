@@ -6,15 +6,17 @@ import time
 import traceback
 from typing import Callable
 
+import numpy as np
 from mpi4py import MPI
 
+from rollsim.files import atomic_write_text
 from rollsim.log import get_logger
 
 from ..regularisation import regularisation_summary
 from ..rundir import finish_run, history_row, make_run_directory, write_history
 from ..scene_model import layer_materials, relaxation_hint, solver_options, wheel_geometry
 
-__all__ = ["ProtocolRun", "run_protected", "heave_warnings", "REPORT_S_OVER_D", "HEAVE_TOLERANCE"]
+__all__ = ["ProtocolRun", "run_protected", "heave_warnings", "rut_depth", "REPORT_S_OVER_D", "HEAVE_TOLERANCE"]
 
 #: s/d values at which an indentation's Q_V is always computed (step boundaries; a pneumatic tire
 #: aims at them) and reported in summary.json
@@ -49,6 +51,30 @@ def heave_warnings(steps, x_soft: float | None, x_start: float, load: float, d: 
                      f"relaxed along the whole path ([model] relaxation_length; dense sand: d/1500 = "
                      f"{1e3 * d / 1500:.2g} mm)")
     return lines
+
+
+def rut_depth(xs, w, *, x_from: float, x_wheel: float, x_start: float, steady, sinkage: float,
+              contact_length: float) -> dict:
+    """Rut depth (the mean settlement ``w`` of the surface profile ``xs`` once the wheel is lifted
+    off) and rebound (sinkage - rut depth), m.  Window: from ``x_from`` (the end of the stiff
+    zone, or the start) + half a contact length, or the start of the steady-state window if later,
+    to half a contact length behind the wheel centre ``x_wheel`` (soil the wheel has rolled over).
+    ``steady``: the :class:`~rollsim.solver.rolling.SteadyState` or None; ``sinkage``: the last
+    step's, used without a steady state."""
+    lo = x_from + 0.5 * contact_length
+    if steady is not None and steady.reached:
+        lo = max(lo, x_start + steady.travel - steady.window)
+    hi = x_wheel - 0.5 * contact_length
+    sel = (xs >= lo) & (xs <= hi)
+    result = {"rut_window_m": [float(lo), float(hi)]}
+    if sel.sum() >= 2:
+        rut = float(np.mean(w[sel]))
+        s_ref = steady.sinkage if steady is not None else sinkage
+        result.update(rut_depth_m=rut, rebound_m=s_ref - rut)
+    else:
+        result.update(rut_depth_m=None, rebound_m=None,
+                      rut_note="the wheel has not rolled far enough beyond the stiff zone to measure the rut")
+    return result
 
 
 def run_protected(body, comm: MPI.Comm, state) -> tuple[str, str, dict]:
@@ -220,6 +246,44 @@ class ProtocolRun:
                 **results, "model": self.model_summary(),
                 "files": {"history": "history.csv", "plot": "force_sinkage.png",
                           "fields": ["fields/fields.xdmf", "fields/deformed.xdmf"] if self.write_fields else []}}
+
+    def measure_rut(self, profile: Callable[[], tuple], **window) -> dict | None:
+        """:func:`rut_depth` of the surface ``profile()`` (after the lift-off), the profile written
+        to ``rut_profile.csv`` and listed in the summary's files by :meth:`add_rut`; None when
+        it fails (logged: a measurement must not lose the run)."""
+        try:
+            xs, w = profile()
+            rut = rut_depth(xs, w, **window)
+            if self.root:
+                atomic_write_text(self.out / "rut_profile.csv", "x_m,settlement_m\n" + "".join(
+                    f"{x:.10g},{s:.10g}\n" for x, s in zip(xs, w)))
+            return rut
+        except Exception as err:  # noqa: BLE001 - a measurement must not lose the run
+            log.warning("rut measurement failed: %s", err)
+            return None
+
+    @staticmethod
+    def lift_off(lift: Callable[[], object]) -> str | None:
+        """Run ``lift()``, the wheel lifted off to measure the rut.  A failure loses only the rut:
+        its reason is logged and returned (None: lifted); an interrupt propagates."""
+        from ..stepping import SolverDivergedError
+        try:
+            lift()
+        except SolverDivergedError as err:      # the rolling result stands
+            if err.kind == "interrupted":
+                raise
+            log.warning("lift-off failed, the rut is not measured: %s", err)
+            return str(err)
+        return None
+
+    @staticmethod
+    def add_rut(summary: dict, rut: dict | None, lift_failure: str | None) -> None:
+        """The rut of :meth:`measure_rut` into ``summary`` (or why it is missing)."""
+        if rut is not None:
+            summary.update(rut)
+            summary["files"]["rut_profile"] = "rut_profile.csv"
+        elif lift_failure:
+            summary.update(rut_depth_m=None, rebound_m=None, rut_note=f"lift-off failed: {lift_failure}")
 
     def warn_heave(self, summary: dict, steps, x_soft: float | None, x_start: float,
                    rut_depth: float | None = None) -> None:

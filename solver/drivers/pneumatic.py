@@ -8,7 +8,7 @@ point below the undisturbed surface) reaches ``loading.max_sinkage``, or until t
 ``protocol = "rolling-constant-load"`` (half model, ``rollsim.solver.pneumatic_rolling``): the
 tire inflated, pressed to ``loading.load`` on the stiff start zone, then towed with that load
 on its hub and zero torque on its axle until its sinkage is steady or ``loading.travel`` is
-rolled.
+rolled; then lifted off to measure the rut (``rut_profile.csv``), as a rigid wheel.
 
 Besides the common run files: the fields of tire and soil, ``plastic_zone.png`` (the deformed
 tire on the soil) and the contact pressure under the tire at the end (``contact_pressure.csv``
@@ -51,15 +51,23 @@ def _tire(scene, run: ProtocolRun, tagged, tire, kind, petsc_options):
     return pn
 
 
-def _close(run: ProtocolRun, pn) -> dict:
-    """The tire's state at the end, the picture of the deformed tire on the soil and the contact
-    pressure files; returns the tire's state (:meth:`PneumaticIndentation.tire_state`)."""
+def _loaded(run: ProtocolRun, pn) -> dict:
+    """The tire's state now (:meth:`PneumaticIndentation.tire_state`) and its contact pressure
+    files."""
     tire_state = pn.tire_state()
-    run.close_fields(lambda writer: writer.render_plastic_zone(
-        run.out / "plastic_zone.png", f"tire on soil: equivalent plastic strain at s = {tire_state['sinkage_m']:.4f} m"))
     gathered = run.comm.gather(pn.contact.contact_points(), root=0)       # (points, areas, pressures) per rank
     if run.root:
         write_contact_pressure(run.out, *zip(*gathered), run.scene.wheel.inflation, tire_state["sinkage_m"])
+    return tire_state
+
+
+def _close(run: ProtocolRun, pn, tire_state: dict | None = None) -> dict:
+    """The picture of the deformed tire on the soil (the last field frame) and the tire's state
+    with its contact pressure files (``tire_state``: taken before, by :func:`_loaded`; default:
+    now); returns the tire's state."""
+    tire_state = tire_state or _loaded(run, pn)
+    run.close_fields(lambda writer: writer.render_plastic_zone(
+        run.out / "plastic_zone.png", f"tire on soil: equivalent plastic strain at s = {tire_state['sinkage_m']:.4f} m"))
     return tire_state
 
 
@@ -119,7 +127,7 @@ def run_pneumatic_rolling(scene, out_dir, comm: MPI.Comm, *, progress: bool = Tr
     min_travel = STEADY_MIN_TRAVEL * d if steady_min_travel is None else float(steady_min_travel)
     step = TRAVEL_STEP * d / scene.model.elements_per_d
     bar = TravelProgress(travel, d, enabled=progress and run.root)
-    outcome = {"steady": None}
+    outcome = {"steady": None, "loaded": None, "contact_length": 0.0, "lift_failure": None, "lifted": False}
 
     def on_step(st):
         run.record(st, st.travel, float(len(run.rows) + 1))
@@ -138,21 +146,29 @@ def run_pneumatic_rolling(scene, out_dir, comm: MPI.Comm, *, progress: bool = Tr
         if not steady.reached:
             log.warning("no steady state within the travel of %g m: the values are those of the last step (a "
                         "longer travel or a coarser steady tolerance may help)", travel)
+        outcome["loaded"] = _loaded(run, pn)                    # the tire's state before the lift-off
+        outcome["contact_length"] = pn.contact_length()
+        outcome["lift_failure"] = run.lift_off(pn.lift)
+        outcome["lifted"] = outcome["lift_failure"] is None
         return None
 
     status, reason, diagnostics = run.execute(
         rolling, lambda: {"last_converged_travel_m": pn.travel, "last_converged_sinkage_m": -pn.lowest_point(),
                           "step_cuts_total": pn.cuts})
-    results = {"tire": _close(run, pn), "travel_m": pn.travel, "rotation_rad": pn.hub_rotation,
+    steady = outcome["steady"]
+    rut = run.measure_rut(pn.surface_profile, x_from=x_soft, x_wheel=pn.position, x_start=pn.x_start, steady=steady,
+                          sinkage=pn.roll_steps[-1].sinkage if pn.roll_steps else 0.0,
+                          contact_length=outcome["contact_length"]) if outcome["lifted"] else None
+    results = {"tire": _close(run, pn, outcome["loaded"]), "travel_m": pn.travel, "rotation_rad": pn.hub_rotation,
                "rolling_radius_m": pn.rolling_radius(x_soft),
                "moment_Nm": pn.roll_steps[-1].moment if pn.roll_steps else 0.0,
-               "rut_depth_m": None, "rebound_m": None, "rut_note": "not measured for a pneumatic tire"}
-    steady = outcome["steady"]
+               "rut_depth_m": None, "rebound_m": None}
     if steady is not None:
         results.update(steady_state=dataclasses.asdict(steady), sinkage_m=steady.sinkage, QH_N=steady.QH,
                        QV_N=steady.QV)
     summary = run.summary(status, reason, **results)
-    run.warn_heave(summary, pn.roll_steps, x_soft, tire.x_centre)
+    run.add_rut(summary, rut, outcome["lift_failure"])
+    run.warn_heave(summary, pn.roll_steps, x_soft, tire.x_centre, summary.get("rut_depth_m"))
     summary["model"].update(x_start_m=tire.x_centre, stiff_zone_end_m=x_soft, load_rtol=pn.load_rtol,
                             moment_rtol=pn.moment_rtol, steady_rtol=steady_rtol, steady_qh_rtol=steady_qh_rtol,
                             steady_min_travel_m=min_travel, travel_step_m=step)

@@ -5,15 +5,12 @@ from __future__ import annotations
 
 import dataclasses
 
-import numpy as np
 from mpi4py import MPI
 
-from rollsim.files import atomic_write_text
 from rollsim.log import get_logger
 
 from ..rolling import STEADY_MIN_TRAVEL, SteadyState, WheelRolling
-from ..stepping import SolverDivergedError
-from .base import HEAVE_TOLERANCE, RollingRun, heave_warnings
+from .base import HEAVE_TOLERANCE, RollingRun, heave_warnings, rut_depth
 from .pneumatic import run_pneumatic_rolling
 
 __all__ = ["run_constant_load", "measure_rut", "heave_warnings", "STIFF_LENGTH", "HEAVE_TOLERANCE"]
@@ -25,27 +22,16 @@ STIFF_LENGTH = 0.75
 #: displacement magnification of the rut picture
 RUT_PICTURE_SCALE = 5.0
 def measure_rut(roll: WheelRolling, steady: SteadyState | None, x_soft: float | None, contact_length: float) -> dict:
-    """Rut depth and rebound from the surface profile on the wheel path once the wheel has been
-    lifted off (:meth:`WheelRolling.lift`; collective).
-
-    Window: from the start of the steady-state window (or the soft soil + half a contact length)
-    to half a contact length behind the wheel centre (soil that the wheel has rolled over)."""
+    """:func:`~rollsim.solver.drivers.base.rut_depth` of the surface profile once the wheel has been
+    lifted off (:meth:`WheelRolling.lift`; collective), with the profile (``"profile"``)."""
     xs, w = roll.surface_profile()
-    L = contact_length
-    lo = (x_soft if x_soft is not None else roll.x_start) + 0.5 * L
-    if steady is not None and steady.reached:
-        lo = max(lo, roll.x_start + steady.travel - steady.window)
-    hi = roll.position - 0.5 * L
-    sel = (xs >= lo) & (xs <= hi)
-    result = {"profile": (xs, w), "rut_window_m": [float(lo), float(hi)]}
-    if sel.sum() >= 2:
-        rut = float(np.mean(w[sel]))
-        s_ref = steady.sinkage if steady is not None else roll.sinkage
-        result.update(rut_depth_m=rut, rebound_m=s_ref - rut)
-    else:
-        result.update(rut_depth_m=None, rebound_m=None,
-                      rut_note="the wheel has not rolled far enough beyond the stiff zone to measure the rut")
-    return result
+    return {"profile": (xs, w), **rut_depth(xs, w, **_rut_window(roll, steady, x_soft, contact_length))}
+
+
+def _rut_window(roll: WheelRolling, steady, x_soft, contact_length: float) -> dict:
+    """The keywords of :func:`~rollsim.solver.drivers.base.rut_depth` after ``roll``."""
+    return {"x_from": x_soft if x_soft is not None else roll.x_start, "x_wheel": roll.position,
+            "x_start": roll.x_start, "steady": steady, "sinkage": roll.sinkage, "contact_length": contact_length}
 
 
 def run_constant_load(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_options: dict | None = None,
@@ -87,20 +73,14 @@ def run_constant_load(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, 
             log.warning("no steady state within the travel of %g m: the values are those of the last "
                         "step (a longer travel or a coarser steady tolerance may help)", travel)
         outcome["contact_length"] = roll.contact_length()
-        try:
-            roll.lift(on_step=run.on_step)
-        except SolverDivergedError as err:      # the rolling result stands; only the rut is lost
-            if err.kind == "interrupted":
-                raise
-            log.warning("lift-off failed, the rut is not measured: %s", err)
-            outcome["lift_failure"] = str(err)
-            return None
-        outcome["lifted"] = True
+        outcome["lift_failure"] = run.lift_off(lambda: roll.lift(on_step=run.on_step))
+        outcome["lifted"] = outcome["lift_failure"] is None
         return None
 
     status, reason, diagnostics = run.execute(rolling, run.state)
     steady = outcome["steady"]
-    rut = _rut(run, steady, x_soft, outcome["contact_length"]) if outcome["lifted"] else None
+    rut = (run.measure_rut(roll.surface_profile, **_rut_window(roll, steady, x_soft, outcome["contact_length"]))
+           if outcome["lifted"] else None)
     run.close_fields(lambda writer: writer.render_plastic_zone(
         run.out / "rut.png", f"rut and plastic zone (displacement x {RUT_PICTURE_SCALE:g})",
         displacement_scale=RUT_PICTURE_SCALE) if run.rows else None)
@@ -111,28 +91,9 @@ def run_constant_load(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, 
     if steady is not None:
         summary["steady_state"] = dataclasses.asdict(steady)
         summary.update(sinkage_m=steady.sinkage, QH_N=steady.QH, QV_N=steady.QV)
-    if rut is not None:
-        summary.update(rut)
-        summary["files"]["rut_profile"] = "rut_profile.csv"
-    elif outcome["lift_failure"]:
-        summary.update(rut_depth_m=None, rebound_m=None, rut_note=f"lift-off failed: {outcome['lift_failure']}")
+    run.add_rut(summary, rut, outcome["lift_failure"])
     run.warn_heave(summary, roll.steps, x_soft, roll.x_start, summary.get("rut_depth_m"))
     if write_fields:
         summary["files"]["rut_picture"] = "rut.png"
     run.plot_travel(summary)
     return run.finish(summary, diagnostics)
-
-
-def _rut(run: RollingRun, steady, x_soft, contact_length: float) -> dict | None:
-    """:func:`measure_rut` after the lift-off, with the profile written to ``rut_profile.csv``;
-    None when it fails (logged)."""
-    try:
-        rut = measure_rut(run.roll, steady, x_soft, contact_length)
-        xs, w = rut.pop("profile")
-        if run.root:
-            atomic_write_text(run.out / "rut_profile.csv", "x_m,settlement_m\n" + "".join(
-                f"{x:.10g},{s:.10g}\n" for x, s in zip(xs, w)))
-        return rut
-    except Exception as err:  # noqa: BLE001 - a measurement must not lose the run
-        log.warning("rut measurement failed: %s", err)
-        return None
