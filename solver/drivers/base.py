@@ -285,10 +285,11 @@ class ProtocolRun:
         elif lift_failure:
             summary.update(rut_depth_m=None, rebound_m=None, rut_note=f"lift-off failed: {lift_failure}")
 
-    def warn_heave(self, summary: dict, steps, x_soft: float | None, x_start: float,
-                   rut_depth: float | None = None) -> None:
-        """Put :func:`heave_warnings` of a constant-load roll (``steps``) into ``summary`` and log them."""
-        summary["warnings"] = heave_warnings(steps, x_soft, x_start, self.scene.loading.load, self.d, rut_depth)
+    def warn_heave(self, summary: dict, steps, x_soft: float | None, x_start: float) -> None:
+        """Put :func:`heave_warnings` of a constant-load roll (``steps``, and the rut depth in
+        ``summary`` if measured) into ``summary`` and log them."""
+        summary["warnings"] = heave_warnings(steps, x_soft, x_start, self.scene.loading.load, self.d,
+                                             summary.get("rut_depth_m"))
         for line in summary["warnings"]:
             log.warning("%s", line)
 

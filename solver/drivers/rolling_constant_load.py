@@ -92,7 +92,7 @@ def run_constant_load(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, 
         summary["steady_state"] = dataclasses.asdict(steady)
         summary.update(sinkage_m=steady.sinkage, QH_N=steady.QH, QV_N=steady.QV)
     run.add_rut(summary, rut, outcome["lift_failure"])
-    run.warn_heave(summary, roll.steps, x_soft, roll.x_start, summary.get("rut_depth_m"))
+    run.warn_heave(summary, roll.steps, x_soft, roll.x_start)
     if write_fields:
         summary["files"]["rut_picture"] = "rut.png"
     run.plot_travel(summary)
