@@ -169,7 +169,7 @@ def run_pneumatic_rolling(scene, out_dir, comm: MPI.Comm, *, progress: bool = Tr
     summary = run.summary(status, reason, **results)
     run.add_rut(summary, rut, outcome["lift_failure"])
     run.warn_heave(summary, pn.roll_steps, x_soft, pn.x_start)
-    summary["model"].update(x_start_m=tire.x_centre, stiff_zone_end_m=x_soft, load_rtol=pn.load_rtol,
+    summary["model"].update(x_start_m=pn.x_start, stiff_zone_end_m=x_soft, load_rtol=pn.load_rtol,
                             moment_rtol=pn.moment_rtol, steady_rtol=steady_rtol, steady_qh_rtol=steady_qh_rtol,
                             steady_min_travel_m=min_travel, travel_step_m=step)
     _files(summary, write_fields)
