@@ -123,6 +123,27 @@ def remarks(r: dict) -> list[str]:
     return out
 
 
+#: starts (d of travel) of the windows whose mean sinkage the table compares on long travels
+WINDOWS = (1.0, 2.0, 2.5)
+
+
+def rolled(r: dict) -> tuple[np.ndarray, np.ndarray]:
+    """The travel (m) and sinkage (m) of the rolled steps a level kept (``travel_sinkage``): not
+    the press, not the lift-off."""
+    x, s = np.array(r.get("travel_sinkage") or [], dtype=float).reshape(-1, 2).T
+    _, first = np.unique(x, return_index=True)
+    first = np.sort(first[x[first] > 0])
+    return x[first], s[first]
+
+
+def window_means(r: dict, starts=WINDOWS) -> list[float | None]:
+    """Mean sinkage (m) of the rolled steps from each of ``starts`` (d of travel) on (None: fewer
+    than 3 steps there): does the order of the levels depend on how much of the approach the
+    mean takes in?"""
+    x, s = rolled(r)
+    return [float(s[x >= a * protocols.D].mean()) if (x >= a * protocols.D).sum() >= 3 else None for a in starts]
+
+
 def groups(results: list[dict]) -> dict[tuple[str, str], list[dict]]:
     """The levels of ``results`` by (soil, strain with its relaxation, fallback and block), sorted."""
     out: dict[tuple[str, str], list[dict]] = {}
@@ -155,6 +176,12 @@ def table(results: list[dict]) -> str:
             notes.append(f"{key[0]}, {key[1]}: observed order {fit[0]:.2f}, extrapolated sinkage {1e3 * fit[1]:.2f} mm")
         elif len(rows) >= 3:
             notes.append(f"{key[0]}, {key[1]}: the three finest levels do not converge monotonically")
+        windows = {r["refinement"]: window_means(r) for r in rows}
+        if len(rows) >= 2 and all(None not in w for w in windows.values()):
+            means = "; ".join(f"{n:g} / d: " + " / ".join(f"{1e3 * m:.2f}" for m in w)
+                              for n, w in sorted(windows.items()))
+            notes.append(f"{key[0]}, {key[1]}: mean sinkage from {' / '.join(f'{a:g}' for a in WINDOWS)} d "
+                         f"of travel (mm): {means}")
         for r in sorted(rows, key=lambda r: r["refinement"]):
             coarser = [c for c in rows if c["refinement"] < r["refinement"]]
             change = f"{100 * (score(r) / score(coarser[0]) - 1):+.1f} %" if coarser else ""
@@ -183,10 +210,8 @@ def travel_figure(path: pathlib.Path, results: list[dict]) -> bool:
     fig, axes = plt.subplots(rows, cols, figsize=(4.2 * cols, 3.0 * rows), squeeze=False)
     for ax, (key, group) in zip(axes.flat, kept.items()):
         for r in sorted(group, key=lambda r: r["refinement"]):
-            x, s = np.array(r["travel_sinkage"], dtype=float).reshape(-1, 2).T
-            _, first = np.unique(x, return_index=True)      # the rolled steps: not the press, not the lift-off
-            rolled = first[x[first] > 0]
-            ax.plot(x[rolled] / protocols.D, 1e3 * s[rolled], lw=1, label=f"{r['refinement']:g} / d")
+            x, s = rolled(r)
+            ax.plot(x / protocols.D, 1e3 * s, lw=1, label=f"{r['refinement']:g} / d")
         ax.set_title(f"{key[0]}, {key[1]}", fontsize=8)
         ax.set_xlabel("travel / d", fontsize=8)
         ax.set_ylabel("sinkage (mm)", fontsize=8)

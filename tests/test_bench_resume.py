@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import pathlib
 
+import numpy as np
 import pytest
 
 BENCHMARKS = pathlib.Path(__file__).parents[1] / "benchmarks"
@@ -176,3 +177,28 @@ def test_block_size_table_and_bad_block(benchmarks, tmp_path, capsys):
     with pytest.raises(SystemExit) as exit_status:
         block_size.main(["--block", "2.6:0.8", "--results", str(results)])
     assert exit_status.value.code == 2
+
+
+@pytest.mark.serial
+def test_rolling_convergence_compares_the_levels_over_later_windows(benchmarks):
+    """Levels rolled past the last window get the means of their rolled steps from 1 / 2 / 2.5 d of
+    travel under the table (the press at x = 0 and the lift-off's repeated x are not rolled steps);
+    a group with a level too short for a window gets none."""
+    convergence, _ = benchmarks
+    d = convergence.protocols.D
+    x = (0.3 + 0.25 * np.arange(14)) * d                 # rolled steps every 0.25 d from 0.3 d
+
+    def level(n, early, late):                           # 'early' mm up to 2 d of travel, 'late' after
+        rolled = [[xi, 1e-3 * (early if xi < 2 * d else late)] for xi in x]
+        lift = [[x[-1], 0.005], [x[-1], 0.0]]
+        return _level(n, 0.012, travel_sinkage=[[0.0, 0.001]] + rolled + lift)
+
+    text = convergence.table([level(6.0, 10.0, 12.0), level(8.0, 20.0, 12.0)])
+    assert convergence.window_means(level(6.0, 10.0, 12.0)) == pytest.approx([(4 * 10 + 7 * 12) / 11 * 1e-3,
+                                                                               12e-3, 12e-3])
+    (note,) = [line for line in text.splitlines() if "mean sinkage from 1 / 2 / 2.5 d" in line]
+    assert "6 / d: 11.27 / 12.00 / 12.00; 8 / d: 14.91 / 12.00 / 12.00" in note
+    short = level(8.0, 20.0, 12.0)
+    short["travel_sinkage"] = short["travel_sinkage"][:9]        # rolled to 2.05 d only
+    assert convergence.window_means(short)[1:] == [None, None]
+    assert "mean sinkage from" not in convergence.table([level(6.0, 10.0, 12.0), short])
