@@ -8,8 +8,9 @@
 
 A tire of the Mn/DOT roller's size (d = 1.524 m, b = 0.3 d, hub 0.5 d, shoulder radius 0.08 d,
 carcass E = ``--E`` MPa, nu = 0.45, inflated to ``--pressure`` kPa) and a rigid cylinder of the
-same diameter and width (fillet b/12) are pressed into the same clay (von Mises, c = 60 kPa,
-E = 20 MPa, nu = 0.3, gamma = 18 kN/m^3, mu = 0.5, ``--strain``), quarter models on a block of
+same diameter and width (fillet b/12) are pressed into the same clay (von Mises, c = ``--cohesion``,
+default 60 kPa, E = ``--soil-E``, default 20 MPa, nu = 0.3, gamma = 18 kN/m^3, mu = 0.5, ``--strain``),
+quarter models on a block of
 1 d each side and 1 d deep.  Each ``--levels`` entry ``n:h`` meshes the tire-on-soil model with
 ``n`` soil elements per d (hexahedra) and carcass elements of ``h`` m; each ``--rigid`` entry the
 rigid wheel's block with that many elements per d (tetrahedra, or ``--rigid-hexahedra``; on
@@ -39,7 +40,11 @@ from rollsim.solver.pneumatic import PneumaticIndentation
 
 D = 1.524
 GAMMA, FRICTION = 18e3, 0.5
-CLAY = VonMises(E=20e6, nu=0.3, yield_stress=3 ** 0.5 * 60e3)
+
+
+def clay(cohesion: float = 60e3, young: float = 20e6) -> VonMises:
+    """The undrained clay of undrained strength ``cohesion`` (Pa) and Young's modulus ``young`` (Pa)."""
+    return VonMises(E=young, nu=0.3, yield_stress=3 ** 0.5 * cohesion)
 
 
 def _block():
@@ -61,13 +66,13 @@ def _fmt(value, spec: str, scale: float = 1.0) -> str:
 
 
 def tire_run(comm, per_d: float, size: float, pressure: float, young: float, sinkage: float, load: float,
-             step: float, strain: str) -> dict:
+             step: float, strain: str, soil: VonMises) -> dict:
     """The tire pressed to ``sinkage`` (m) in steps of ``step`` (m): its curve and its figures at the end."""
     t0 = time.perf_counter()
     tire = pneumatic_tire(D, cut="quarter", gap=0.05)
     tagged = build_tire_on_soil(comm, tire, _block(), MeshOptions.from_refinement(D, per_d, order=2, hexahedra=True),
                                 MeshOptions(size, size, 1.0, order=2))
-    pn = PneumaticIndentation(tagged, tire, CLAY, NeoHookean(young, 0.45), gamma=GAMMA, friction=FRICTION,
+    pn = PneumaticIndentation(tagged, tire, soil, NeoHookean(young, 0.45), gamma=GAMMA, friction=FRICTION,
                               volumetric_strain=strain)
     pn.gravity_step()
     pn.inflate(pressure)
@@ -80,12 +85,12 @@ def tire_run(comm, per_d: float, size: float, pressure: float, young: float, sin
 
 
 def rigid_run(comm, per_d: float, sinkage: float, load: float, step: float, strain: str,
-              hexahedra: bool, projection: int | None = None) -> dict:
+              hexahedra: bool, soil: VonMises, projection: int | None = None) -> dict:
     """The rigid cylinder pushed to ``sinkage`` (m) in steps of ``step`` (m): its curve."""
     t0 = time.perf_counter()
     tagged = build_soil_block(comm, _block(), MeshOptions.from_refinement(D, per_d, hexahedra=hexahedra))
     wheel = CylinderWheel(D, 0.3 * D, 0.3 * D / 12)
-    ind = WheelIndentation(tagged, wheel, CLAY, gamma=GAMMA, friction=FRICTION, volumetric_strain=strain,
+    ind = WheelIndentation(tagged, wheel, soil, gamma=GAMMA, friction=FRICTION, volumetric_strain=strain,
                            volumetric_projection=projection)
     ind.gravity_step()
     curve = [(st.sinkage, st.QV) for st in ind.push(sinkage, StepControl(dt=step / sinkage, dt_max=step / sinkage))]
@@ -110,9 +115,14 @@ def main(argv=None) -> int:
     p.add_argument("--load", type=float, default=30.0, help="wheel load of the comparison, kN")
     p.add_argument("--sinkage", type=float, default=0.03, help="pressed to this sinkage, m")
     p.add_argument("--step", type=float, default=0.002, help="sinkage per step, in d")
+    p.add_argument("--cohesion", type=float, default=60.0, help="the clay's undrained strength, kPa")
+    p.add_argument("--soil-E", type=float, default=20.0, help="the clay's Young's modulus, MPa")
     p.add_argument("--out")
     args = p.parse_args(argv)
+    if not (args.cohesion > 0 and args.soil_E > 0):
+        p.error("--cohesion and --soil-E must be > 0")
     comm = MPI.COMM_WORLD
+    soil = clay(1e3 * args.cohesion, 1e6 * args.soil_E)
     load = 1e3 * args.load
     rows = []
 
@@ -126,14 +136,14 @@ def main(argv=None) -> int:
     for level in args.levels:
         per_d, size = (float(v) for v in level.split(":"))
         r = tire_run(comm, per_d, size, 1e3 * args.pressure, 1e6 * args.E, args.sinkage, load, args.step * D,
-                     args.strain)
+                     args.strain, soil)
         rows.append(r)
         show(f"| pneumatic | {per_d:g}/d, carcass {1e3 * size:g} mm | {r['dofs']} | "
              f"{_fmt(r['load_at_sinkage'], '.2f', 1e-3)} | {_fmt(r['sinkage_at_load'], '.2f', 1e3)} | {1e3 * r['deflection_m']:.1f} | "
              f"{_fmt(r['equivalent_diameter_m'], '.2f', 1 / D)} | {_fmt(r['flexibility_m_per_N'], '.2e')} | "
              f"{_fmt(r['carcass_load_share'], '.2f')} | {r['newton_iterations']} | {r['time_s']:.0f} |")
     for per_d in args.rigid:
-        r = rigid_run(comm, per_d, args.sinkage, load, args.step * D, args.strain, args.rigid_hexahedra,
+        r = rigid_run(comm, per_d, args.sinkage, load, args.step * D, args.strain, args.rigid_hexahedra, soil,
                       args.projection)
         rows.append(r)
         mesh = f"{per_d:g}/d" + (", hexahedra" if args.rigid_hexahedra else "") + (
@@ -146,7 +156,8 @@ def main(argv=None) -> int:
         finest = [next((r[key] for r in reversed(rows) if r["wheel"] == w), None) for w in ("pneumatic", "rigid")]
         if None not in finest:
             show(f"pneumatic / rigid {what} (finest meshes): {finest[0] / finest[1]:.2f}")
-    dump_json(comm, args.out, {"load_N": load, "results": rows})
+    dump_json(comm, args.out, {"load_N": load, "cohesion_Pa": 1e3 * args.cohesion, "soil_E_Pa": 1e6 * args.soil_E,
+                               "results": rows})
     return 0
 
 
