@@ -141,7 +141,8 @@ def window_means(r: dict, starts=WINDOWS) -> list[float | None]:
     than 3 steps there): does the order of the levels depend on how much of the approach the
     mean takes in?"""
     x, s = rolled(r)
-    return [float(s[x >= a * protocols.D].mean()) if (x >= a * protocols.D).sum() >= 3 else None for a in starts]
+    late = [x >= a * protocols.D for a in starts]
+    return [float(s[on].mean()) if on.sum() >= 3 else None for on in late]
 
 
 def groups(results: list[dict]) -> dict[tuple[str, str], list[dict]]:

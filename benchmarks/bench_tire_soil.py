@@ -43,7 +43,7 @@ GAMMA, FRICTION = 18e3, 0.5
 
 
 def clay(cohesion: float = 60e3, young: float = 20e6) -> VonMises:
-    """The undrained clay of undrained strength ``cohesion`` (Pa) and Young's modulus ``young`` (Pa)."""
+    """A clay of undrained strength ``cohesion`` (Pa) and Young's modulus ``young`` (Pa), von Mises."""
     return VonMises(E=young, nu=0.3, yield_stress=3 ** 0.5 * cohesion)
 
 
