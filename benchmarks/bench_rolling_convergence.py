@@ -10,6 +10,7 @@ Scenes (Mn/DOT roller, d = 1.524 m, b = 0.4572 m, towed at constant load on a ha
 2.6 x 0.8 x 0.8 d with a 0.5 d stiff start zone, as ``bench_rolling_protocols.py``):
 
 * ``clay``: von Mises q_y = 300 kPa, 100 kN, mu = 0;
+* ``case2``: the clay of report case 2, von Mises q_y = 200 kPa, 133.5 kN, mu = 0.8;
 * ``case5``: Drucker-Prager phi_dp = 27.5 deg, c_dp = 194.6 kPa (psi = 0), 133.5 kN, mu = 0.8;
 * ``sand``: the dense sand of layered case 13, Drucker-Prager phi_dp = 61.6 deg, c_dp = 18.5 kPa
   (psi = 0, a steep non-associated cone), 133.5 kN, mu = 0.8.
@@ -45,6 +46,7 @@ from _bench import ORDER_RANGE, add_results_arguments, dump_json, observed_order
 from rollsim.solver.options import VOLUMETRIC_STRAINS
 
 SOILS = {"clay": ["--yield-stress", "300", "--load", "100", "--mu", "0"],
+         "case2": ["--yield-stress", "200", "--load", "133.5", "--mu", "0.8"],
          "case5": ["--yield-stress", "194.6", "--phi-dp", "27.5", "--load", "133.5", "--mu", "0.8"],
          "sand": ["--yield-stress", "18.5", "--phi-dp", "61.6", "--load", "133.5", "--mu", "0.8"]}
 #: block length and constant-load travel (in d) of the study's levels
