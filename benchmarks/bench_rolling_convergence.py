@@ -27,7 +27,8 @@ rebuilds it from saved JSON files without solving; with ``--figure`` it also dra
 the travel of every level).  ``--relaxation-length`` (mm) runs the
 levels with a Duvaut-Lions regularisation along the whole path, ``--fallbacks`` relaxes only the
 steps that fail, as a plain ``rollsim run`` scene does, ``--length`` / ``--travel`` (d) on a longer block
-(both kept apart in the table).  Each level keeps its sinkage along the travel
+(both kept apart in the table), ``--path-refinement`` on hexahedra shortens the refined strip's
+elements along the path only (the contact arc is one or two elements long at 6-10 per d).  Each level keeps its sinkage along the travel
 (``travel_sinkage``).  An existing ``--out`` file is resumed: the levels it holds are not solved
 again.
 """
@@ -55,7 +56,7 @@ LENGTH, TRAVEL = 2.6, 1.5
 FALLBACK_ROUTE = "started over relaxed"
 #: values of the run keys that results saved before the key existed were run with
 DEFAULTS = {"relaxation_length_mm": 0.0, "fallbacks": False, "block_length_d": LENGTH, "travel_d": TRAVEL,
-            "cell_type": "tetrahedra"}
+            "cell_type": "tetrahedra", "path_refinement": 1.0}
 
 
 def block_args(length: float = LENGTH, travel: float = TRAVEL) -> list[str]:
@@ -66,12 +67,14 @@ def block_args(length: float = LENGTH, travel: float = TRAVEL) -> list[str]:
 
 
 def level_args(soil: str, refinement: float, strain: str, relaxation_length: float = 0.0,
-               block: list[str] | None = None, fallbacks: bool = False, hexahedra: bool = False):
+               block: list[str] | None = None, fallbacks: bool = False, hexahedra: bool = False,
+               path_refinement: float = 1.0):
     """The constant-load run of ``soil`` at ``refinement`` elements per d on ``block`` (arguments of
     ``bench_rolling_protocols.py``; default :func:`block_args`), as parsed arguments."""
     return protocols.parser().parse_args(SOILS[soil] + (block or block_args()) + [
         "--refinement", f"{refinement:g}", "--volumetric-strain", strain, "--skip-continuous",
-        "--relaxation-length", f"{relaxation_length:g}"] + ["--fallbacks"] * fallbacks + ["--hexahedra"] * hexahedra)
+        "--relaxation-length", f"{relaxation_length:g}", "--path-refinement", f"{path_refinement:g}"]
+        + ["--fallbacks"] * fallbacks + ["--hexahedra"] * hexahedra)
 
 
 def sinkage(r: dict) -> float | None:
@@ -99,6 +102,8 @@ def formulation(r: dict) -> str:
         text += ", fallbacks over 0.1 d stretches" if route is True else f", fallback {route}"
     if r.get("cell_type", "tetrahedra") == "hexahedra":
         text += ", Q2-P1 hexahedra" if r["strain"] == "cell-average" else ", Q2 hexahedra"
+    if r.get("path_refinement", 1.0) != 1.0:
+        text += f", {r['path_refinement']:g}x finer along the path"
     length, travel = r.get("block_length_d", LENGTH), r.get("travel_d", TRAVEL)
     if (length, travel) != (LENGTH, TRAVEL):
         text += f", {length:g} d block, {travel:g} d travel"
@@ -241,10 +246,15 @@ def main(argv=None) -> int:
     p.add_argument("--travel", type=float, default=TRAVEL, help="constant-load travel limit, d")
     p.add_argument("--hexahedra", action="store_true",
                    help="structured 27-node hexahedra (B-bar: Q2-P1; kept apart in the table)")
+    p.add_argument("--path-refinement", type=float, default=1.0,
+                   help="with --hexahedra: elements this many times shorter along the wheel path than "
+                        "across and down (kept apart in the table)")
     add_results_arguments(p)
     p.add_argument("--figure", type=pathlib.Path,
                    help="with --table: draw the sinkage along the travel of every level to this file")
     args = p.parse_args(argv)
+    if args.path_refinement != 1.0 and not args.hexahedra:
+        p.error("--path-refinement needs --hexahedra")
     comm = MPI.COMM_WORLD
     if args.table:
         if comm.rank == 0:
@@ -259,13 +269,14 @@ def main(argv=None) -> int:
             run = {"soil": args.soil, "strain": strain, "refinement": n,
                    "relaxation_length_mm": args.relaxation_length, "fallbacks": args.fallbacks and FALLBACK_ROUTE,
                    "block_length_d": args.length, "travel_d": args.travel,
-                   "cell_type": "hexahedra" if args.hexahedra else "tetrahedra"}
+                   "cell_type": "hexahedra" if args.hexahedra else "tetrahedra",
+                   "path_refinement": args.path_refinement}
             if any(all(r.get(k, DEFAULTS.get(k, 0.0)) == v for k, v in run.items()) for r in results):
                 if comm.rank == 0:
                     print(f"{formulation(run)}, {n:g} elements / d: in {args.out}, not solved again", flush=True)
                 continue
             level = level_args(args.soil, n, strain, args.relaxation_length, block_args(args.length, args.travel),
-                               args.fallbacks, args.hexahedra)
+                               args.fallbacks, args.hexahedra, args.path_refinement)
             cl = protocols.constant_load(comm, level.mu[0], level)
             # the sinkage along the travel (m, m): where a level settles, or whether it drifts
             cl["travel_sinkage"] = [[round(x, 5), round(s, 7)] for x, s, _, _ in cl.pop("curve")]

@@ -32,6 +32,7 @@ the friction effect on the steady sinkage (mu vs the first mu), wall times, step
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import time
 
 import numpy as np
@@ -53,7 +54,7 @@ def _block(comm, args, stiff, length=None):
                         path_half_width=args.path_half_width, refined_depth=args.refined_depth)
     mesh = (MeshOptions.from_refinement(D, args.refinement, hexahedra=args.hexahedra) if args.refinement
             else MeshOptions.from_accuracy(D, args.accuracy, hexahedra=args.hexahedra))
-    return build_soil_block(comm, blk, mesh)
+    return build_soil_block(comm, blk, dataclasses.replace(mesh, path_refinement=args.path_refinement))
 
 
 def soil(args):
@@ -188,6 +189,8 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--stiff", type=float, default=0.5, help="stiff start zone length, d")
     p.add_argument("--hexahedra", action="store_true",
                    help="structured 27-node hexahedra (B-bar: Q2-P1) instead of 10-node tetrahedra")
+    p.add_argument("--path-refinement", type=float, default=1.0,
+                   help="with --hexahedra: the refined strip's elements this many times shorter along the path")
     p.add_argument("--path-half-width", type=float, default=0.3, help="half width of the refined strip, d")
     p.add_argument("--refined-depth", type=float, default=0.4, help="depth of the refined strip, d")
     p.add_argument("--cl-travel", type=float, default=1.3, help="constant-load travel limit, d")

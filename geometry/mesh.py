@@ -37,6 +37,8 @@ class MeshOptions:
     transition: distance over which the size grows from fine to coarse, m
     order: geometry (and suggested displacement) order, 1 or 2
     hexahedra: structured (transfinite) hexahedra/quadrilaterals instead of tetrahedra/triangles
+    path_refinement: hexahedral 3D blocks: the refined zone's elements are this many times shorter
+    along x (the rolling direction) than fine_size, which stays their size across and down
     """
 
     fine_size: float
@@ -44,6 +46,7 @@ class MeshOptions:
     transition: float
     order: int = 1
     hexahedra: bool = False
+    path_refinement: float = 1.0
 
     def __post_init__(self):
         if not self.fine_size > 0:
@@ -54,10 +57,14 @@ class MeshOptions:
             raise ValueError(f"transition must be > 0, got {self.transition}")
         if self.order not in (1, 2):
             raise ValueError(f"order must be 1 or 2, got {self.order}")
+        if not self.path_refinement >= 1:
+            raise ValueError(f"path_refinement must be >= 1, got {self.path_refinement}")
+        if self.path_refinement != 1 and not self.hexahedra:
+            raise ValueError("path_refinement needs hexahedra (tetrahedral sizes are isotropic)")
 
     @classmethod
     def from_refinement(cls, d: float, refinement: float, order: int = 1,
-                        hexahedra: bool = False) -> "MeshOptions":
+                        hexahedra: bool = False, path_refinement: float = 1.0) -> "MeshOptions":
         """The one-knob mesh: ``refinement`` elements per wheel diameter ``d`` (m) in the refined zone.
 
         fine = d / refinement, coarse = 4 fine, transition = 0.5 d; cell counts grow as refinement**3
@@ -68,7 +75,7 @@ class MeshOptions:
         if not d > 0:
             raise ValueError(f"d must be > 0, got {d}")
         fine = d / refinement
-        return cls(fine, COARSE_TO_FINE * fine, 0.5 * d, order, hexahedra)
+        return cls(fine, COARSE_TO_FINE * fine, 0.5 * d, order, hexahedra, path_refinement)
 
     @classmethod
     def from_accuracy(cls, d: float, accuracy: str, order: int = 1,

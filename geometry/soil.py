@@ -185,10 +185,11 @@ def _breakpoints(lo: float, hi: float, physical, grading, min_gap: float) -> np.
     return np.array(sorted(points))
 
 
-def _size_along(s: np.ndarray, zone: tuple[float, float], opts: MeshOptions) -> np.ndarray:
-    """Target element size at positions ``s`` on an axis whose refined interval is ``zone``."""
+def _size_along(s: np.ndarray, zone: tuple[float, float], opts: MeshOptions, fine: float) -> np.ndarray:
+    """Target element size at positions ``s`` on an axis whose refined interval is ``zone`` and
+    whose size there is ``fine``."""
     dist = np.maximum(np.maximum(zone[0] - s, s - zone[1]), 0.0)
-    return np.minimum(opts.coarse_size, opts.fine_size + (opts.coarse_size - opts.fine_size) * dist / opts.transition)
+    return np.minimum(opts.coarse_size, fine + (opts.coarse_size - fine) * dist / opts.transition)
 
 
 def _entities_of(model: gmsh.model, dim: int, bodies: list[int] | None) -> list[list[int]]:
@@ -206,15 +207,16 @@ def _entities_of(model: gmsh.model, dim: int, bodies: list[int] | None) -> list[
 def _set_transfinite(model: gmsh.model, axes: list[np.ndarray], zones: list[tuple[float, float]],
                      opts: MeshOptions, bodies: list[int] | None = None) -> None:
     """Structured mesh of the box grid (its ``bodies``, default all): graded node counts per axis
-    interval, quads/hexes."""
+    interval, quads/hexes; in 3D the refined zone is ``opts.path_refinement`` times finer along x."""
     dim = len(axes)
+    fine = [opts.fine_size / (opts.path_refinement if dim == 3 and axis == 0 else 1.0) for axis in range(dim)]
     entities = _entities_of(model, dim, bodies)
     for curve in entities[0]:
         box = np.array(model.getBoundingBox(1, curve)).reshape(2, 3)
         axis = int(np.argmax(box[1] - box[0]))
         a, b = box[0, axis], box[1, axis]
         s = np.linspace(a, b, 201)
-        h = _size_along(s, zones[axis], opts)
+        h = _size_along(s, zones[axis], opts, fine[axis])
         n = max(1, int(round(np.trapz(1.0 / h, s))))
         ratio = (h[-1] / h[0]) ** (1.0 / max(n - 1, 1))
         start = model.getValue(1, curve, [model.getParametrizationBounds(1, curve)[0][0]])[axis]
@@ -340,6 +342,8 @@ def build_plane_strain_block(comm: MPI.Comm, block: PlaneStrainBlock, opts: Mesh
 
     Cell tags ``layer_k``; facet tags top, contact (``|x| <= contact_half_width``), symmetry_x, side, bottom.
     """
+    if opts.path_refinement != 1:
+        raise ValueError("path_refinement applies to 3D blocks (a plane-strain block has no rolling direction)")
     cell_names = facet_names = None
     with gmsh_model(comm, "plane_strain_block") as model:
         with root_block(comm) as on_root:  # a failure here is raised on every rank

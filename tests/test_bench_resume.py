@@ -77,6 +77,23 @@ def test_rolling_convergence_keeps_hexahedra_apart_from_the_cell_count(benchmark
     text = capsys.readouterr().out
     assert text.count("not solved again") == 2
     assert "| case5 | cell-average | 6 |" in text and "| case5 | cell-average, Q2-P1 hexahedra | 6 |" in text
+    # elements shortened along the path are another run, passed on to the scene and labelled apart
+    solved = []
+
+    def record(comm, mu, level):
+        solved.append((level.hexahedra, level.path_refinement))
+        raise RuntimeError("stop")
+
+    monkeypatch.setattr(convergence.protocols, "constant_load", record)
+    with pytest.raises(RuntimeError, match="stop"):
+        convergence.main(["--soil", "case5", "--refinement", "6", "--volumetric-strain", "cell-average",
+                          "--hexahedra", "--path-refinement", "2", "--out", str(out)])
+    assert solved == [(True, 2.0)]
+    finer = _level(6.0, 0.015, cell_type="hexahedra", path_refinement=2.0)
+    assert convergence.formulation(finer) == "cell-average, Q2-P1 hexahedra, 2x finer along the path"
+    with pytest.raises(SystemExit) as exit_info:
+        convergence.main(["--soil", "case5", "--refinement", "6", "--path-refinement", "2", "--out", str(out)])
+    assert exit_info.value.code == 2
 
 
 @pytest.mark.serial
