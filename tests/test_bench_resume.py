@@ -25,6 +25,22 @@ def _level(refinement, sinkage, **extra):
             "settled": {"sinkage_mean": sinkage, "sinkage_std": 1e-4}, **extra}
 
 
+def _solved_level(convergence, monkeypatch, argv: list[str], *fields: str) -> tuple:
+    """The ``fields`` of the scene arguments of the one level the case-5 cell-average sweep with
+    ``argv`` solves (the solve itself is stopped)."""
+    solved = []
+
+    def record(comm, mu, level):
+        solved.append(tuple(getattr(level, f) for f in fields))
+        raise RuntimeError("stop")
+
+    monkeypatch.setattr(convergence.protocols, "constant_load", record)
+    with pytest.raises(RuntimeError, match="stop"):
+        convergence.main(["--soil", "case5", "--refinement", "6", "--volumetric-strain", "cell-average"] + argv)
+    (level,) = solved
+    return level
+
+
 @pytest.mark.serial
 def test_rolling_convergence_resumes_and_keeps_regularised_runs_apart(benchmarks, tmp_path, monkeypatch, capsys):
     convergence, _ = benchmarks
@@ -43,17 +59,8 @@ def test_rolling_convergence_resumes_and_keeps_regularised_runs_apart(benchmarks
     assert "| case5 | cell-average | 6 |" in text and "| case5 | cell-average, 0.5 mm relaxation | 6 |" in text
     assert len(json.loads(out.read_text())["results"]) == 2
     # a longer block is another run: solved, and labelled apart in the table
-    solved = []
-
-    def record(comm, mu, level):
-        solved.append((level.length, level.cl_travel))
-        raise RuntimeError("stop")
-
-    monkeypatch.setattr(convergence.protocols, "constant_load", record)
-    with pytest.raises(RuntimeError, match="stop"):
-        convergence.main(["--soil", "case5", "--refinement", "6", "--volumetric-strain", "cell-average",
-                          "--length", "3.6", "--travel", "2.5", "--out", str(out)])
-    assert solved == [(3.6, 2.5)]
+    assert _solved_level(convergence, monkeypatch, ["--length", "3.6", "--travel", "2.5", "--out", str(out)],
+                         "length", "cl_travel") == (3.6, 2.5)
     longer = _level(6.0, 0.019, relaxation_length_mm=0.0, block_length_d=3.6, travel_d=2.5)
     assert convergence.formulation(longer) == "cell-average, 3.6 d block, 2.5 d travel"
 
@@ -78,17 +85,8 @@ def test_rolling_convergence_keeps_hexahedra_apart_from_the_cell_count(benchmark
     assert text.count("not solved again") == 2
     assert "| case5 | cell-average | 6 |" in text and "| case5 | cell-average, Q2-P1 hexahedra | 6 |" in text
     # elements shortened along the path are another run, passed on to the scene and labelled apart
-    solved = []
-
-    def record(comm, mu, level):
-        solved.append((level.hexahedra, level.path_refinement))
-        raise RuntimeError("stop")
-
-    monkeypatch.setattr(convergence.protocols, "constant_load", record)
-    with pytest.raises(RuntimeError, match="stop"):
-        convergence.main(["--soil", "case5", "--refinement", "6", "--volumetric-strain", "cell-average",
-                          "--hexahedra", "--path-refinement", "2", "--out", str(out)])
-    assert solved == [(True, 2.0)]
+    assert _solved_level(convergence, monkeypatch, ["--hexahedra", "--path-refinement", "2", "--out", str(out)],
+                         "hexahedra", "path_refinement") == (True, 2.0)
     finer = _level(6.0, 0.015, cell_type="hexahedra", path_refinement=2.0)
     assert convergence.formulation(finer) == "cell-average, Q2-P1 hexahedra, 2x finer along the path"
     with pytest.raises(SystemExit) as exit_info:
