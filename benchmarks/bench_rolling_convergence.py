@@ -27,8 +27,11 @@ rebuilds it from saved JSON files without solving; with ``--figure`` it also dra
 the travel of every level).  ``--relaxation-length`` (mm) runs the
 levels with a Duvaut-Lions regularisation along the whole path, ``--fallbacks`` relaxes only the
 steps that fail, as a plain ``rollsim run`` scene does, ``--length`` / ``--travel`` (d) on a longer block
-(both kept apart in the table), ``--path-refinement`` on hexahedra shortens the refined strip's
-elements along the path only (the contact arc is one or two elements long at 6-10 per d).  Each level keeps its sinkage along the travel
+(both kept apart in the table), ``--path-refinement`` / ``--cross-refinement`` /
+``--depth-refinement`` on hexahedra shorten the refined strip's elements along / across the path
+or in depth only (at 6-10 per d the contact arc is one or two elements long and the wheel's half
+width one or two elements wide).  Each level
+keeps its sinkage along the travel
 (``travel_sinkage``).  An existing ``--out`` file is resumed: the levels it holds are not solved
 again.
 """
@@ -44,6 +47,7 @@ from mpi4py import MPI
 import bench_rolling_protocols as protocols
 from _bench import ORDER_RANGE, add_results_arguments, dump_json, observed_order, saved_results, show_table
 
+from rollsim.geometry.mesh import ANISOTROPIC_REFINEMENTS
 from rollsim.solver.options import VOLUMETRIC_STRAINS
 
 SOILS = {"clay": ["--yield-stress", "300", "--load", "100", "--mu", "0"],
@@ -56,7 +60,9 @@ LENGTH, TRAVEL = 2.6, 1.5
 FALLBACK_ROUTE = "started over relaxed"
 #: values of the run keys that results saved before the key existed were run with
 DEFAULTS = {"relaxation_length_mm": 0.0, "fallbacks": False, "block_length_d": LENGTH, "travel_d": TRAVEL,
-            "cell_type": "tetrahedra", "path_refinement": 1.0}
+            "cell_type": "tetrahedra", **dict.fromkeys(ANISOTROPIC_REFINEMENTS, 1.0)}
+#: how the table names the refined strip's hexahedra shortened along each axis
+SHORTER = dict(zip(ANISOTROPIC_REFINEMENTS, ("along the path", "across the path", "in depth")))
 
 
 def block_args(length: float = LENGTH, travel: float = TRAVEL) -> list[str]:
@@ -68,12 +74,14 @@ def block_args(length: float = LENGTH, travel: float = TRAVEL) -> list[str]:
 
 def level_args(soil: str, refinement: float, strain: str, relaxation_length: float = 0.0,
                block: list[str] | None = None, fallbacks: bool = False, hexahedra: bool = False,
-               path_refinement: float = 1.0):
+               refinements: dict[str, float] | None = None):
     """The constant-load run of ``soil`` at ``refinement`` elements per d on ``block`` (arguments of
-    ``bench_rolling_protocols.py``; default :func:`block_args`), as parsed arguments."""
+    ``bench_rolling_protocols.py``; default :func:`block_args`; ``refinements``: the anisotropic
+    mesh fields by name), as parsed arguments."""
     return protocols.parser().parse_args(SOILS[soil] + (block or block_args()) + [
         "--refinement", f"{refinement:g}", "--volumetric-strain", strain, "--skip-continuous",
-        "--relaxation-length", f"{relaxation_length:g}", "--path-refinement", f"{path_refinement:g}"]
+        "--relaxation-length", f"{relaxation_length:g}"]
+        + [a for k, v in (refinements or {}).items() for a in (f"--{k.replace('_', '-')}", f"{v:g}")]
         + ["--fallbacks"] * fallbacks + ["--hexahedra"] * hexahedra)
 
 
@@ -102,8 +110,9 @@ def formulation(r: dict) -> str:
         text += ", fallbacks over 0.1 d stretches" if route is True else f", fallback {route}"
     if r.get("cell_type", "tetrahedra") == "hexahedra":
         text += ", Q2-P1 hexahedra" if r["strain"] == "cell-average" else ", Q2 hexahedra"
-    if r.get("path_refinement", 1.0) != 1.0:
-        text += f", {r['path_refinement']:g}x finer along the path"
+    for name, axis in SHORTER.items():
+        if r.get(name, 1.0) != 1.0:
+            text += f", {r[name]:g}x finer {axis}"
     length, travel = r.get("block_length_d", LENGTH), r.get("travel_d", TRAVEL)
     if (length, travel) != (LENGTH, TRAVEL):
         text += f", {length:g} d block, {travel:g} d travel"
@@ -246,15 +255,17 @@ def main(argv=None) -> int:
     p.add_argument("--travel", type=float, default=TRAVEL, help="constant-load travel limit, d")
     p.add_argument("--hexahedra", action="store_true",
                    help="structured 27-node hexahedra (B-bar: Q2-P1; kept apart in the table)")
-    p.add_argument("--path-refinement", type=float, default=1.0,
-                   help="with --hexahedra: elements this many times shorter along the wheel path than "
-                        "across and down (kept apart in the table)")
+    for name, axis in SHORTER.items():
+        p.add_argument(f"--{name.replace('_', '-')}", type=float, default=1.0,
+                       help=f"with --hexahedra: the refined strip's elements this many times shorter {axis} "
+                            "(kept apart in the table)")
     add_results_arguments(p)
     p.add_argument("--figure", type=pathlib.Path,
                    help="with --table: draw the sinkage along the travel of every level to this file")
     args = p.parse_args(argv)
-    if args.path_refinement != 1.0 and not args.hexahedra:
-        p.error("--path-refinement needs --hexahedra")
+    for name in SHORTER:
+        if getattr(args, name) != 1.0 and not args.hexahedra:
+            p.error(f"--{name.replace('_', '-')} needs --hexahedra")
     comm = MPI.COMM_WORLD
     if args.table:
         if comm.rank == 0:
@@ -270,13 +281,13 @@ def main(argv=None) -> int:
                    "relaxation_length_mm": args.relaxation_length, "fallbacks": args.fallbacks and FALLBACK_ROUTE,
                    "block_length_d": args.length, "travel_d": args.travel,
                    "cell_type": "hexahedra" if args.hexahedra else "tetrahedra",
-                   "path_refinement": args.path_refinement}
+                   **{name: getattr(args, name) for name in SHORTER}}
             if any(all(r.get(k, DEFAULTS.get(k, 0.0)) == v for k, v in run.items()) for r in results):
                 if comm.rank == 0:
                     print(f"{formulation(run)}, {n:g} elements / d: in {args.out}, not solved again", flush=True)
                 continue
             level = level_args(args.soil, n, strain, args.relaxation_length, block_args(args.length, args.travel),
-                               args.fallbacks, args.hexahedra, args.path_refinement)
+                               args.fallbacks, args.hexahedra, {name: getattr(args, name) for name in SHORTER})
             cl = protocols.constant_load(comm, level.mu[0], level)
             # the sinkage along the travel (m, m): where a level settles, or whether it drifts
             cl["travel_sinkage"] = [[round(x, 5), round(s, 7)] for x, s, _, _ in cl.pop("curve")]

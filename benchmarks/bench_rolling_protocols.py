@@ -41,6 +41,7 @@ from mpi4py import MPI
 from _bench import add_volumetric_strain, dump_json
 
 from rollsim.geometry import CylinderWheel, MeshOptions, build_soil_block, rolling_block
+from rollsim.geometry.mesh import ANISOTROPIC_REFINEMENTS
 from rollsim.solver import DruckerPrager, SolverDivergedError, VonMises
 from rollsim.solver.drivers.rolling_constant_load import measure_rut
 from rollsim.solver.options import DEFAULT_RELAXATION_FALLBACK, DEFAULT_TRAVEL_RELAXATION_FALLBACK
@@ -54,7 +55,7 @@ def _block(comm, args, stiff, length=None):
                         path_half_width=args.path_half_width, refined_depth=args.refined_depth)
     mesh = (MeshOptions.from_refinement(D, args.refinement, hexahedra=args.hexahedra) if args.refinement
             else MeshOptions.from_accuracy(D, args.accuracy, hexahedra=args.hexahedra))
-    return build_soil_block(comm, blk, dataclasses.replace(mesh, path_refinement=args.path_refinement))
+    return build_soil_block(comm, blk, dataclasses.replace(mesh, **{k: getattr(args, k) for k in ANISOTROPIC_REFINEMENTS}))
 
 
 def soil(args):
@@ -189,8 +190,9 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--stiff", type=float, default=0.5, help="stiff start zone length, d")
     p.add_argument("--hexahedra", action="store_true",
                    help="structured 27-node hexahedra (B-bar: Q2-P1) instead of 10-node tetrahedra")
-    p.add_argument("--path-refinement", type=float, default=1.0,
-                   help="with --hexahedra: the refined strip's elements this many times shorter along the path")
+    for name, axis in zip(ANISOTROPIC_REFINEMENTS, ("along the path", "across the path", "in depth")):
+        p.add_argument(f"--{name.replace('_', '-')}", type=float, default=1.0,
+                       help=f"with --hexahedra: the refined strip's elements this many times shorter {axis}")
     p.add_argument("--path-half-width", type=float, default=0.3, help="half width of the refined strip, d")
     p.add_argument("--refined-depth", type=float, default=0.4, help="depth of the refined strip, d")
     p.add_argument("--cl-travel", type=float, default=1.3, help="constant-load travel limit, d")

@@ -22,6 +22,8 @@ ACCURACY_REFINEMENT: dict[str, float] = {"fast": 8.0, "standard": 20.0, "accurat
 
 #: Coarse / fine element-size ratio used by ``MeshOptions.from_refinement`` (0.08 d / 0.02 d).
 COARSE_TO_FINE = 4.0
+#: the MeshOptions fields that shorten the refined zone's hexahedra along x, y and z
+ANISOTROPIC_REFINEMENTS = ("path_refinement", "cross_refinement", "depth_refinement")
 
 
 class InvertedElementError(ValueError):
@@ -38,7 +40,9 @@ class MeshOptions:
     order: geometry (and suggested displacement) order, 1 or 2
     hexahedra: structured (transfinite) hexahedra/quadrilaterals instead of tetrahedra/triangles
     path_refinement: hexahedral 3D blocks: the refined zone's elements are this many times shorter
-    along x (the rolling direction) than fine_size, which stays their size across and down
+    along x (the rolling direction) than fine_size
+    cross_refinement: the same across the path (y)
+    depth_refinement: the same down (z)
     """
 
     fine_size: float
@@ -47,6 +51,8 @@ class MeshOptions:
     order: int = 1
     hexahedra: bool = False
     path_refinement: float = 1.0
+    cross_refinement: float = 1.0
+    depth_refinement: float = 1.0
 
     def __post_init__(self):
         if not self.fine_size > 0:
@@ -57,25 +63,27 @@ class MeshOptions:
             raise ValueError(f"transition must be > 0, got {self.transition}")
         if self.order not in (1, 2):
             raise ValueError(f"order must be 1 or 2, got {self.order}")
-        if not self.path_refinement >= 1:
-            raise ValueError(f"path_refinement must be >= 1, got {self.path_refinement}")
-        if self.path_refinement != 1 and not self.hexahedra:
-            raise ValueError("path_refinement needs hexahedra (tetrahedral sizes are isotropic)")
+        for name in ANISOTROPIC_REFINEMENTS:
+            value = getattr(self, name)
+            if not value >= 1:
+                raise ValueError(f"{name} must be >= 1, got {value}")
+            if value != 1 and not self.hexahedra:
+                raise ValueError(f"{name} needs hexahedra (tetrahedral sizes are isotropic)")
 
     @classmethod
     def from_refinement(cls, d: float, refinement: float, order: int = 1,
-                        hexahedra: bool = False, path_refinement: float = 1.0) -> "MeshOptions":
+                        hexahedra: bool = False, **refinements: float) -> "MeshOptions":
         """The one-knob mesh: ``refinement`` elements per wheel diameter ``d`` (m) in the refined zone.
 
         fine = d / refinement, coarse = 4 fine, transition = 0.5 d; cell counts grow as refinement**3
-        (refinement**2 in 2D).
+        (refinement**2 in 2D). ``refinements``: the anisotropic fields (ANISOTROPIC_REFINEMENTS).
         """
         if not refinement > 0:
             raise ValueError(f"refinement must be > 0, got {refinement}")
         if not d > 0:
             raise ValueError(f"d must be > 0, got {d}")
         fine = d / refinement
-        return cls(fine, COARSE_TO_FINE * fine, 0.5 * d, order, hexahedra, path_refinement)
+        return cls(fine, COARSE_TO_FINE * fine, 0.5 * d, order, hexahedra, **refinements)
 
     @classmethod
     def from_accuracy(cls, d: float, accuracy: str, order: int = 1,

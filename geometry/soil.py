@@ -13,8 +13,8 @@ import gmsh
 import numpy as np
 from mpi4py import MPI
 
-from rollsim.geometry.mesh import (MeshOptions, TaggedMesh, add_physical_groups, box_size_field, distribute,
-                                   gmsh_model, log, set_order)
+from rollsim.geometry.mesh import (ANISOTROPIC_REFINEMENTS, MeshOptions, TaggedMesh, add_physical_groups,
+                                   box_size_field, distribute, gmsh_model, log, set_order)
 from rollsim.mpi import root_block
 
 CUTS = ("full", "half", "quarter")
@@ -207,9 +207,11 @@ def _entities_of(model: gmsh.model, dim: int, bodies: list[int] | None) -> list[
 def _set_transfinite(model: gmsh.model, axes: list[np.ndarray], zones: list[tuple[float, float]],
                      opts: MeshOptions, bodies: list[int] | None = None) -> None:
     """Structured mesh of the box grid (its ``bodies``, default all): graded node counts per axis
-    interval, quads/hexes; in 3D the refined zone is ``opts.path_refinement`` times finer along x."""
+    interval, quads/hexes; in 3D the refined zone is ``opts.path_refinement``,
+    ``opts.cross_refinement`` and ``opts.depth_refinement`` times finer along x, y and z."""
     dim = len(axes)
-    fine = [opts.fine_size / (opts.path_refinement if dim == 3 and axis == 0 else 1.0) for axis in range(dim)]
+    factors = (opts.path_refinement, opts.cross_refinement, opts.depth_refinement) if dim == 3 else (1.0, 1.0)
+    fine = [opts.fine_size / k for k in factors]
     entities = _entities_of(model, dim, bodies)
     for curve in entities[0]:
         box = np.array(model.getBoundingBox(1, curve)).reshape(2, 3)
@@ -342,8 +344,9 @@ def build_plane_strain_block(comm: MPI.Comm, block: PlaneStrainBlock, opts: Mesh
 
     Cell tags ``layer_k``; facet tags top, contact (``|x| <= contact_half_width``), symmetry_x, side, bottom.
     """
-    if opts.path_refinement != 1:
-        raise ValueError("path_refinement applies to 3D blocks (a plane-strain block has no rolling direction)")
+    if any(getattr(opts, name) != 1 for name in ANISOTROPIC_REFINEMENTS):
+        raise ValueError(f"{' / '.join(ANISOTROPIC_REFINEMENTS)} apply to 3D blocks "
+                         "(a plane-strain block is meshed isotropically)")
     cell_names = facet_names = None
     with gmsh_model(comm, "plane_strain_block") as model:
         with root_block(comm) as on_root:  # a failure here is raised on every rank

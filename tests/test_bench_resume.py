@@ -89,9 +89,17 @@ def test_rolling_convergence_keeps_hexahedra_apart_from_the_cell_count(benchmark
                          "hexahedra", "path_refinement") == (True, 2.0)
     finer = _level(6.0, 0.015, cell_type="hexahedra", path_refinement=2.0)
     assert convergence.formulation(finer) == "cell-average, Q2-P1 hexahedra, 2x finer along the path"
-    with pytest.raises(SystemExit) as exit_info:
-        convergence.main(["--soil", "case5", "--refinement", "6", "--path-refinement", "2", "--out", str(out)])
-    assert exit_info.value.code == 2
+    # and so are elements narrowed across the path
+    assert _solved_level(convergence, monkeypatch, ["--hexahedra", "--cross-refinement", "3", "--out", str(out)],
+                         "path_refinement", "cross_refinement") == (1.0, 3.0)
+    narrower = _level(6.0, 0.015, cell_type="hexahedra", cross_refinement=3.0)
+    assert convergence.formulation(narrower) == "cell-average, Q2-P1 hexahedra, 3x finer across the path"
+    thinner = _level(6.0, 0.015, cell_type="hexahedra", depth_refinement=2.0)
+    assert convergence.formulation(thinner) == "cell-average, Q2-P1 hexahedra, 2x finer in depth"
+    for knob in ("--path-refinement", "--cross-refinement", "--depth-refinement"):
+        with pytest.raises(SystemExit) as exit_info:
+            convergence.main(["--soil", "case5", "--refinement", "6", knob, "2", "--out", str(out)])
+        assert exit_info.value.code == 2
 
 
 @pytest.mark.serial

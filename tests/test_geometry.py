@@ -12,7 +12,8 @@ from mpi4py import MPI
 
 from rollsim import compat
 from rollsim.geometry.cli import main
-from rollsim.geometry.mesh import InvertedElementError, MeshOptions, distribute, gmsh_model, mesh_quality
+from rollsim.geometry.mesh import (ANISOTROPIC_REFINEMENTS, InvertedElementError, MeshOptions, distribute, gmsh_model,
+                                   mesh_quality)
 from rollsim.geometry.soil import (RefinedZone, PlaneStrainBlock, SoilBlock, build_plane_strain_block,
                                    build_soil_block, indentation_block, rolling_block)
 from rollsim.geometry.tire import PneumaticTire, build_tire, pneumatic_tire
@@ -105,14 +106,15 @@ def test_refinement_knob_scales_cell_count(comm, hexahedra, low, high, band):
     assert band[0] < ratio < band[1], counts
 
 
-def test_path_refinement_shortens_hexahedra_along_the_path_only(comm):
-    """The contact strip of a rolling block (uniformly fine across and along) holds twice the facets
-    at path_refinement = 2, and the cells under it are half as long along x, as wide across and as
-    deep; the measures stay."""
-    block = rolling_block(D, length=2.0, half_width=0.8, depth=0.8, stiff_length=0.5)
+@pytest.mark.parametrize("knob, axis", [("path_refinement", 0), ("cross_refinement", 1), ("depth_refinement", 2)])
+def test_anisotropic_refinement_shortens_hexahedra_along_one_axis_only(comm, knob, axis):
+    """With ``knob`` = 2 the cells under the contact strip of a rolling block are half as long along
+    ``axis`` (x: along the path, y: across it, z: down) and as long along the other two, the strip
+    holds twice the facets (as many when the cells are thinner in depth), and the measures stay."""
+    block = rolling_block(D, length=2.0, half_width=0.8, depth=0.8, stiff_length=0.5, refined_depth=0.5)
 
-    def contact_cells(path_refinement):
-        opts = MeshOptions.from_refinement(D, 6, 1, True, path_refinement)
+    def contact_cells(factor):
+        opts = MeshOptions.from_refinement(D, 6, 1, True, **{knob: factor})
         tagged = build_soil_block(comm, block, opts)
         assert measure(tagged, "contact", comm) == pytest.approx(2.0 * D * 0.3 * D, rel=1e-9)
         assert measure(tagged, "stiff_zone", comm) == pytest.approx(0.5 * D * 0.8 * D * 0.8 * D, rel=1e-9)
@@ -125,21 +127,23 @@ def test_path_refinement_shortens_hexahedra_along_the_path_only(comm):
         return comm.allreduce(owned, op=MPI.SUM), np.array([comm.allreduce(float(e), op=MPI.MAX) for e in extent])
 
     (n1, size1), (n2, size2) = contact_cells(1.0), contact_cells(2.0)
-    assert n2 == 2 * n1
-    assert size2[0] == pytest.approx(size1[0] / 2, rel=1e-6)
-    assert size2[1:] == pytest.approx(size1[1:], rel=1e-6)
+    assert n2 == (1 if axis == 2 else 2) * n1
+    assert size2[axis] == pytest.approx(size1[axis] / 2, rel=1e-6)
+    others = [k for k in range(3) if k != axis]
+    assert size2[others] == pytest.approx(size1[others], rel=1e-6)
     assert size1[0] == pytest.approx(D / 6, rel=1e-6)
 
 
-def test_path_refinement_is_refused_where_it_has_no_meaning(comm):
-    with pytest.raises(ValueError, match="path_refinement needs hexahedra"):
-        MeshOptions.from_refinement(D, 8, path_refinement=2)
-    with pytest.raises(ValueError, match="path_refinement must be >= 1"):
-        MeshOptions.from_refinement(D, 8, hexahedra=True, path_refinement=0.5)
+@pytest.mark.parametrize("knob", ANISOTROPIC_REFINEMENTS)
+def test_anisotropic_refinement_is_refused_where_it_has_no_meaning(comm, knob):
+    with pytest.raises(ValueError, match=f"{knob} needs hexahedra"):
+        MeshOptions.from_refinement(D, 8, **{knob: 2})
+    with pytest.raises(ValueError, match=f"{knob} must be >= 1"):
+        MeshOptions.from_refinement(D, 8, hexahedra=True, **{knob: 0.5})
     block = PlaneStrainBlock(half_width=3.0, depth=2.0, contact_half_width=0.4, refined_half_width=0.8,
                              refined_depth=0.8)
     with pytest.raises(ValueError, match="plane-strain"):
-        build_plane_strain_block(comm, block, MeshOptions(0.1, 0.4, 0.5, hexahedra=True, path_refinement=2))
+        build_plane_strain_block(comm, block, MeshOptions(0.1, 0.4, 0.5, hexahedra=True, **{knob: 2}))
 
 
 def test_accuracy_presets_are_ordered():
