@@ -30,9 +30,7 @@ steps that fail, as a plain ``rollsim run`` scene does, ``--length`` / ``--trave
 (both kept apart in the table), ``--path-refinement`` / ``--cross-refinement`` /
 ``--depth-refinement`` on hexahedra shorten the refined strip's elements along / across the path
 or in depth only (at 6-10 per d the contact arc is one or two elements long and the wheel's half
-width one or two elements wide).  Each level
-keeps its sinkage along the travel
-(``travel_sinkage``).  An existing ``--out`` file is resumed: the levels it holds are not solved
+width one or two elements wide).  Each level keeps its sinkage along the travel (``travel_sinkage``).  An existing ``--out`` file is resumed: the levels it holds are not solved
 again.
 """
 from __future__ import annotations
@@ -47,7 +45,6 @@ from mpi4py import MPI
 import bench_rolling_protocols as protocols
 from _bench import ORDER_RANGE, add_results_arguments, dump_json, observed_order, saved_results, show_table
 
-from rollsim.geometry.mesh import ANISOTROPIC_REFINEMENTS
 from rollsim.solver.options import VOLUMETRIC_STRAINS
 
 SOILS = {"clay": ["--yield-stress", "300", "--load", "100", "--mu", "0"],
@@ -60,9 +57,8 @@ LENGTH, TRAVEL = 2.6, 1.5
 FALLBACK_ROUTE = "started over relaxed"
 #: values of the run keys that results saved before the key existed were run with
 DEFAULTS = {"relaxation_length_mm": 0.0, "fallbacks": False, "block_length_d": LENGTH, "travel_d": TRAVEL,
-            "cell_type": "tetrahedra", **dict.fromkeys(ANISOTROPIC_REFINEMENTS, 1.0)}
-#: how the table names the refined strip's hexahedra shortened along each axis
-SHORTER = dict(zip(ANISOTROPIC_REFINEMENTS, ("along the path", "across the path", "in depth")))
+            "cell_type": "tetrahedra", **dict.fromkeys(protocols.SHORTER, 1.0)}
+SHORTER = protocols.SHORTER
 
 
 def block_args(length: float = LENGTH, travel: float = TRAVEL) -> list[str]:

@@ -48,6 +48,8 @@ from rollsim.solver.options import DEFAULT_RELAXATION_FALLBACK, DEFAULT_TRAVEL_R
 from rollsim.solver.rolling import STEADY_MIN_TRAVEL, WheelRolling
 
 D, B, GAMMA = 1.524, 0.4572, 20e3
+#: the axis along which each anisotropic mesh field shortens the refined strip's hexahedra
+SHORTER = dict(zip(ANISOTROPIC_REFINEMENTS, ("along the path", "across the path", "in depth")))
 
 
 def _block(comm, args, stiff, length=None):
@@ -55,7 +57,7 @@ def _block(comm, args, stiff, length=None):
                         path_half_width=args.path_half_width, refined_depth=args.refined_depth)
     mesh = (MeshOptions.from_refinement(D, args.refinement, hexahedra=args.hexahedra) if args.refinement
             else MeshOptions.from_accuracy(D, args.accuracy, hexahedra=args.hexahedra))
-    return build_soil_block(comm, blk, dataclasses.replace(mesh, **{k: getattr(args, k) for k in ANISOTROPIC_REFINEMENTS}))
+    return build_soil_block(comm, blk, dataclasses.replace(mesh, **{k: getattr(args, k) for k in SHORTER}))
 
 
 def soil(args):
@@ -190,7 +192,7 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--stiff", type=float, default=0.5, help="stiff start zone length, d")
     p.add_argument("--hexahedra", action="store_true",
                    help="structured 27-node hexahedra (B-bar: Q2-P1) instead of 10-node tetrahedra")
-    for name, axis in zip(ANISOTROPIC_REFINEMENTS, ("along the path", "across the path", "in depth")):
+    for name, axis in SHORTER.items():
         p.add_argument(f"--{name.replace('_', '-')}", type=float, default=1.0,
                        help=f"with --hexahedra: the refined strip's elements this many times shorter {axis}")
     p.add_argument("--path-half-width", type=float, default=0.3, help="half width of the refined strip, d")
