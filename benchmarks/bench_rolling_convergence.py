@@ -24,14 +24,15 @@ strain it is extrapolated from the three finest levels (Richardson, with
 the observed order from the generalised three-level formula of Celik et al., J. Fluids Eng. 130
 (2008) 078001); a level's error is against that value.  Prints a Markdown table (``--table``
 rebuilds it from saved JSON files without solving; with ``--figure`` it also draws the sinkage along
-the travel of every level).  ``--relaxation-length`` (mm) runs the
-levels with a Duvaut-Lions regularisation along the whole path, ``--fallbacks`` relaxes only the
-steps that fail, as a plain ``rollsim run`` scene does, ``--length`` / ``--travel`` (d) on a longer block
-(both kept apart in the table), ``--path-refinement`` / ``--cross-refinement`` /
-``--depth-refinement`` on hexahedra shorten the refined strip's elements along / across the path
-or in depth only (at 6-10 per d the contact arc is one or two elements long and the wheel's half
-width one or two elements wide).  Each level keeps its sinkage along the travel (``travel_sinkage``).  An existing ``--out`` file is resumed: the levels it holds are not solved
-again.
+the travel of every level).  ``--relaxation-length`` (mm) runs the levels with a Duvaut-Lions
+regularisation along the whole path, ``--fallbacks`` relaxes only the steps that fail, as a plain
+``rollsim run`` scene does, ``--length`` / ``--travel`` (d) on a longer block (both kept apart in
+the table), ``--path-refinement`` / ``--cross-refinement`` / ``--depth-refinement`` on hexahedra
+shorten the refined strip's elements along / across the path or in depth only (at 6-10 per d the
+contact arc is one or two elements long and the wheel's half width one or two elements wide).
+Each level keeps its sinkage along the travel (``travel_sinkage``); ``--progress`` prints a line
+per rolled step on stderr.  An existing ``--out`` file is resumed: the levels it holds are not
+solved again.
 """
 from __future__ import annotations
 
@@ -45,6 +46,7 @@ from mpi4py import MPI
 import bench_rolling_protocols as protocols
 from _bench import ORDER_RANGE, add_results_arguments, dump_json, observed_order, saved_results, show_table
 
+from rollsim.log import setup_logging
 from rollsim.solver.options import VOLUMETRIC_STRAINS
 
 SOILS = {"clay": ["--yield-stress", "300", "--load", "100", "--mu", "0"],
@@ -70,15 +72,15 @@ def block_args(length: float = LENGTH, travel: float = TRAVEL) -> list[str]:
 
 def level_args(soil: str, refinement: float, strain: str, relaxation_length: float = 0.0,
                block: list[str] | None = None, fallbacks: bool = False, hexahedra: bool = False,
-               refinements: dict[str, float] | None = None):
+               refinements: dict[str, float] | None = None, progress: bool = False):
     """The constant-load run of ``soil`` at ``refinement`` elements per d on ``block`` (arguments of
     ``bench_rolling_protocols.py``; default :func:`block_args`; ``refinements``: the anisotropic
-    mesh fields by name), as parsed arguments."""
+    mesh fields by name; ``progress``: a line per rolled step), as parsed arguments."""
     return protocols.parser().parse_args(SOILS[soil] + (block or block_args()) + [
         "--refinement", f"{refinement:g}", "--volumetric-strain", strain, "--skip-continuous",
         "--relaxation-length", f"{relaxation_length:g}"]
         + [a for k, v in (refinements or {}).items() for a in (f"--{k.replace('_', '-')}", f"{v:g}")]
-        + ["--fallbacks"] * fallbacks + ["--hexahedra"] * hexahedra)
+        + ["--fallbacks"] * fallbacks + ["--hexahedra"] * hexahedra + ["--progress"] * progress)
 
 
 def sinkage(r: dict) -> float | None:
@@ -130,7 +132,7 @@ def remarks(r: dict) -> list[str]:
         out.append(f"the rate-independent roll failed after {failed:.2f} m and started over relaxed")
     if r.get("lift_failure"):
         out.append("the lift-off failed, the rut is not measured")
-    if r.get("rut_depth", 0.0) < 0:
+    if (r.get("rut_depth") or 0.0) < 0:     # None: the travel left no rut to measure
         out.append(f"the rut is a heave of {-1e3 * r['rut_depth']:.1f} mm")
     return out
 
@@ -256,13 +258,17 @@ def main(argv=None) -> int:
                        help=f"with --hexahedra: the refined strip's elements this many times shorter {axis} "
                             "(kept apart in the table)")
     add_results_arguments(p)
+    p.add_argument("--progress", action="store_true",
+                   help="one line per rolled step on stderr (travel, sinkage, forces, time left)")
     p.add_argument("--figure", type=pathlib.Path,
                    help="with --table: draw the sinkage along the travel of every level to this file")
     args = p.parse_args(argv)
     for name in SHORTER:
         if getattr(args, name) != 1.0 and not args.hexahedra:
             p.error(f"--{name.replace('_', '-')} needs --hexahedra")
+    refinements = {name: getattr(args, name) for name in SHORTER}
     comm = MPI.COMM_WORLD
+    setup_logging(comm, quiet=not args.progress)
     if args.table:
         if comm.rank == 0:
             results = saved_results(args.table)
@@ -277,13 +283,13 @@ def main(argv=None) -> int:
                    "relaxation_length_mm": args.relaxation_length, "fallbacks": args.fallbacks and FALLBACK_ROUTE,
                    "block_length_d": args.length, "travel_d": args.travel,
                    "cell_type": "hexahedra" if args.hexahedra else "tetrahedra",
-                   **{name: getattr(args, name) for name in SHORTER}}
+                   **refinements}
             if any(all(r.get(k, DEFAULTS.get(k, 0.0)) == v for k, v in run.items()) for r in results):
                 if comm.rank == 0:
                     print(f"{formulation(run)}, {n:g} elements / d: in {args.out}, not solved again", flush=True)
                 continue
             level = level_args(args.soil, n, strain, args.relaxation_length, block_args(args.length, args.travel),
-                               args.fallbacks, args.hexahedra, {name: getattr(args, name) for name in SHORTER})
+                               args.fallbacks, args.hexahedra, refinements, args.progress)
             cl = protocols.constant_load(comm, level.mu[0], level)
             # the sinkage along the travel (m, m): where a level settles, or whether it drifts
             cl["travel_sinkage"] = [[round(x, 5), round(s, 7)] for x, s, _, _ in cl.pop("curve")]

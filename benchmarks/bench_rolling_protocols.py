@@ -42,10 +42,12 @@ from _bench import add_volumetric_strain, dump_json
 
 from rollsim.geometry import CylinderWheel, MeshOptions, build_soil_block, rolling_block
 from rollsim.geometry.mesh import ANISOTROPIC_REFINEMENTS
+from rollsim.log import setup_logging
 from rollsim.solver import DruckerPrager, SolverDivergedError, VonMises
 from rollsim.solver.drivers.rolling_constant_load import measure_rut
 from rollsim.solver.options import DEFAULT_RELAXATION_FALLBACK, DEFAULT_TRAVEL_RELAXATION_FALLBACK
 from rollsim.solver.rolling import STEADY_MIN_TRAVEL, WheelRolling
+from rollsim.solver.rundir import TravelProgress
 
 D, B, GAMMA = 1.524, 0.4572, 20e3
 #: the axis along which each anisotropic mesh field shortens the refined strip's hexahedra
@@ -91,8 +93,9 @@ def constant_load(comm, mu, args):
         res = roll.press_to_load(load, 0.25 * D)
         if res.status != "ok":
             raise SolverDivergedError(f"press: {res.status} {res.reason}", None, [])
+        progress = TravelProgress(args.cl_travel * D, D, enabled=args.progress and comm.rank == 0)
         ss = roll.roll_at_load(load, args.cl_travel * D, x_soft=args.stiff * D, steady_rtol=args.steady_rtol,
-                               min_travel=args.steady_min_travel * D)
+                               min_travel=args.steady_min_travel * D, on_step=progress.update)
         L = roll.contact_length()
         # the rolled steps only: the lift-off moves the wheel vertically without a torque balance
         max_rel_moment = max(abs(st.moment) / (load * D) for st in roll.steps if st.travel > 0)
@@ -217,6 +220,8 @@ def parser() -> argparse.ArgumentParser:
                    help="Duvaut-Lions relaxation length of the soil, mm of travel (0: off)")
     p.add_argument("--fallbacks", action="store_true",
                    help="relax a failed step as a plain rollsim run scene does (default: fail)")
+    p.add_argument("--progress", action="store_true",
+                   help="constant load: one line per rolled step on stderr (travel, sinkage, forces, time left)")
     p.add_argument("--skip-continuous", action="store_true")
     p.add_argument("--skip-constant-load", action="store_true")
     p.add_argument("--out")
@@ -227,6 +232,7 @@ def main(argv=None) -> int:
     p = parser()
     args = p.parse_args(argv)
     comm = MPI.COMM_WORLD
+    setup_logging(comm, quiet=not args.progress)
     results = []
     if args.hold_sinkage and len(args.hold_sinkage) != len(args.mu):
         p.error("--hold-sinkage: give one sinkage per --mu value")

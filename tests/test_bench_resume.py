@@ -103,6 +103,15 @@ def test_rolling_convergence_keeps_hexahedra_apart_from_the_cell_count(benchmark
 
 
 @pytest.mark.serial
+def test_rolling_convergence_passes_progress_to_the_level(benchmarks, tmp_path, monkeypatch):
+    """``--progress`` asks the level's roll for a line per step; without it the roll is quiet."""
+    convergence, _ = benchmarks
+    out = str(tmp_path / "levels.json")
+    assert _solved_level(convergence, monkeypatch, ["--progress", "--out", out], "progress") == (True,)
+    assert _solved_level(convergence, monkeypatch, ["--out", out], "progress") == (False,)
+
+
+@pytest.mark.serial
 def test_rolling_convergence_keeps_the_sinkage_along_the_travel(benchmarks, tmp_path, monkeypatch):
     """A solved level is saved with its (travel, sinkage) curve, not its forces."""
     convergence, _ = benchmarks
@@ -132,6 +141,15 @@ def test_rolling_convergence_scores_the_steady_sinkage_when_every_level_settled(
     rows = [line for line in convergence.table(levels).splitlines() if line.startswith("| case5")]
     assert all("| mean from 1 d |" in row for row in rows) and "| not detected |" in rows[1]
     assert f"{100 * (17 / 16 - 1):+.1f} %" in rows[2]
+
+
+@pytest.mark.serial
+def test_rolling_convergence_remarks_on_a_heave_and_not_on_an_unmeasured_rut(benchmarks):
+    """A negative rut is a heave; a rut left unmeasured by a short travel (None) is no remark."""
+    convergence, _ = benchmarks
+    levels = [_level(6.0, 0.012, rut_depth=-2e-3), _level(8.0, 0.016, rut_depth=None), _level(10.0, 0.017)]
+    notes = [line for line in convergence.table(levels).splitlines() if "rut" in line]
+    assert notes == ["- case5, cell-average, 6 elements / d: the rut is a heave of 2.0 mm"]
 
 
 @pytest.mark.serial
