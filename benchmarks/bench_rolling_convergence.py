@@ -83,6 +83,13 @@ def level_args(soil: str, refinement: float, strain: str, relaxation_length: flo
         + ["--fallbacks"] * fallbacks + ["--hexahedra"] * hexahedra + ["--progress"] * progress)
 
 
+def keep_travel_sinkage(cl: dict) -> dict:
+    """A constant-load result with its curve replaced by the sinkage along the travel (m, m):
+    where a level settles, or whether it drifts."""
+    cl["travel_sinkage"] = [[round(x, 5), round(s, 7)] for x, s, _, _ in cl.pop("curve")]
+    return cl
+
+
 def sinkage(r: dict) -> float | None:
     """The mean sinkage of a run over the rolled steps from 1 d of travel on (m; defined whether or
     not the steady-state test passed)."""
@@ -290,9 +297,7 @@ def main(argv=None) -> int:
                 continue
             level = level_args(args.soil, n, strain, args.relaxation_length, block_args(args.length, args.travel),
                                args.fallbacks, args.hexahedra, refinements, args.progress)
-            cl = protocols.constant_load(comm, level.mu[0], level)
-            # the sinkage along the travel (m, m): where a level settles, or whether it drifts
-            cl["travel_sinkage"] = [[round(x, 5), round(s, 7)] for x, s, _, _ in cl.pop("curve")]
+            cl = keep_travel_sinkage(protocols.constant_load(comm, level.mu[0], level))
             results.append({**run, "ranks": comm.size, **cl})
             if comm.rank == 0:
                 s = sinkage(cl)

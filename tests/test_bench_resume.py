@@ -243,3 +243,35 @@ def test_rolling_convergence_compares_the_levels_over_later_windows(benchmarks):
     short["travel_sinkage"] = short["travel_sinkage"][:9]        # rolled to 2.05 d only
     assert convergence.window_means(short)[1:] == [None, None]
     assert "mean sinkage from" not in convergence.table([level(6.0, 10.0, 12.0), short])
+
+
+def test_pose_retry_runs_both_variants_once_and_restores_the_default(benchmarks, tmp_path, monkeypatch, capsys):
+    """Each variant solves with its own ``POSE_HOLDS``, a resumed file solves nothing again, and the
+    default is back afterwards (a failed solve included)."""
+    import bench_pose_retry
+    from rollsim.solver.rolling import WheelRolling
+    default = WheelRolling.POSE_HOLDS
+    seen = []
+
+    def fake(comm, mu, level):
+        seen.append(WheelRolling.POSE_HOLDS)
+        its = 120 if len(WheelRolling.POSE_HOLDS) > 1 else 80
+        return {**_level(6.0, 0.019 + 1e-4 * len(seen)), "newton_iterations": its, "time_s": its / 10,
+                "linear_solves": 2 * its, "status": "ok", "curve": [(0.0, 0.01, 0.0, 0.0)]}
+
+    monkeypatch.setattr(bench_pose_retry.protocols, "constant_load", fake)
+    out = tmp_path / "retry.json"
+    assert bench_pose_retry.main(["--soil", "case5", "--out", str(out)]) == 0
+    assert seen == [(0.1, 0.0), default] and WheelRolling.POSE_HOLDS == default
+    assert bench_pose_retry.main(["--soil", "case5", "--out", str(out)]) == 0
+    assert len(seen) == 2                                                  # resumed: nothing solved again
+    text = capsys.readouterr().out
+    assert "1.50x fewer Newton iterations, 1.50x less wall time, mean sinkage +0.5 %" in text
+
+    def failing(comm, mu, level):
+        raise RuntimeError("solver crashed")
+
+    monkeypatch.setattr(bench_pose_retry.protocols, "constant_load", failing)
+    with pytest.raises(RuntimeError):
+        bench_pose_retry.main(["--soil", "clay", "--out", str(tmp_path / "other.json")])
+    assert WheelRolling.POSE_HOLDS == default
