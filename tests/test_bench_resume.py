@@ -245,6 +245,7 @@ def test_rolling_convergence_compares_the_levels_over_later_windows(benchmarks):
     assert "mean sinkage from" not in convergence.table([level(6.0, 10.0, 12.0), short])
 
 
+@pytest.mark.serial
 def test_pose_retry_runs_both_variants_once_and_restores_the_default(benchmarks, tmp_path, monkeypatch, capsys):
     """Each variant solves with its own ``POSE_HOLDS``, a resumed file solves nothing again, and the
     default is back afterwards (a failed solve included)."""
