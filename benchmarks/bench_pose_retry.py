@@ -12,8 +12,8 @@ A constant-load level of ``bench_rolling_convergence.py`` runs twice in one proc
 step's bordered Newton solve retried, when it fails, with the pose held until the soil has
 converged (``WheelRolling.POSE_HOLDS = (0.1, 0.0)``), and with the step cut at once (the
 default, ``(0.1,)``).  Prints Newton iterations (failed attempts included), steps and cuts,
-wall time and the sinkage of each, and their ratios.  An existing ``--out`` file is resumed: the runs it holds are
-not solved again.
+wall time and the sinkage of each, and their ratios.  An existing ``--out`` file is resumed: the
+runs it holds are not solved again.
 """
 from __future__ import annotations
 
@@ -83,6 +83,8 @@ def main(argv=None) -> int:
     level = {"soil": args.soil, "strain": args.volumetric_strain, "refinement": args.refinement,
              "relaxation_length_mm": args.relaxation_length,
              "cell_type": "hexahedra" if args.hexahedra else "tetrahedra"}
+    level_args = convergence.level_args(args.soil, args.refinement, args.volumetric_strain, args.relaxation_length,
+                                        hexahedra=args.hexahedra, progress=args.progress)
     default_holds = WheelRolling.POSE_HOLDS
     try:
         for variant, holds in VARIANTS.items():
@@ -90,9 +92,6 @@ def main(argv=None) -> int:
             if any(all(r.get(k) == v for k, v in run.items()) for r in results):
                 continue
             WheelRolling.POSE_HOLDS = holds
-            level_args = convergence.level_args(args.soil, args.refinement, args.volumetric_strain,
-                                                args.relaxation_length, hexahedra=args.hexahedra,
-                                                progress=args.progress)
             cl = convergence.keep_travel_sinkage(protocols.constant_load(comm, level_args.mu[0], level_args))
             results.append({**run, "ranks": comm.size, **cl})
             if comm.rank == 0:
