@@ -13,7 +13,8 @@ from dataclasses import dataclass
 
 from rollsim.files import read_toml
 from rollsim.log import get_logger
-from rollsim.solver.options import (ACCURACIES, ACCURACY_REFINEMENT, DEFAULT_ACCURACY, DEFAULT_KINEMATICS,
+from rollsim.solver.options import (ACCURACIES, ACCURACY_REFINEMENT, CELL_TYPES, DEFAULT_ACCURACY,
+                                    DEFAULT_CELL_TYPE, DEFAULT_ELEMENTS_ACROSS_WHEEL, DEFAULT_KINEMATICS,
                                     DEFAULT_LINEAR_SOLVER, DEFAULT_MATCH, DEFAULT_REGULARISING_COHESION,
                                     DEFAULT_RELAXATION_FALLBACK, DEFAULT_RELAXATION_LENGTH,
                                     DEFAULT_TRAVEL_RELAXATION_FALLBACK,
@@ -84,6 +85,8 @@ class ModelSpec:
 
     accuracy: str = DEFAULT_ACCURACY
     refinement: float | None = None   # elements per wheel diameter under the wheel; None: the preset's
+    cell_type: str = DEFAULT_CELL_TYPE   # a rigid wheel's rolling block: tetrahedra or hexahedra
+    elements_across_wheel: float | None = None   # hexahedra: across the wheel's width; None: no finer across
     kinematics: str = DEFAULT_KINEMATICS
     linear_solver: str = DEFAULT_LINEAR_SOLVER
     volumetric_strain: str = DEFAULT_VOLUMETRIC_STRAIN   # parse_scene: default_volumetric_strain(protocol, ...)
@@ -101,8 +104,12 @@ class ModelSpec:
 
     @property
     def mesh_name(self) -> str:
-        """The mesh in words: the preset, or the elements per d that replace it."""
-        return self.accuracy if self.refinement is None else f"{self.refinement:g} elements per d"
+        """The mesh in words: the preset, or the elements per d that replace it, and the hexahedra's
+        elements across the wheel."""
+        name = self.accuracy if self.refinement is None else f"{self.refinement:g} elements per d"
+        if self.elements_across_wheel is not None:
+            name += f" (hexahedra, {self.elements_across_wheel:g} across the wheel)"
+        return name
 
 
 @dataclass(frozen=True)
@@ -150,6 +157,7 @@ PLAUSIBLE = {
     "travel_relaxation_fallback": (0.0, 10.0, 0.0, 0.01),
     "regularising_cohesion": (0.0, 1e6, 0.0, 10e3),
     "plateau_tolerance": (0.0, 0.1, 0.0, 0.01), "refinement": (2.0, 200.0, 6.0, 50.0),
+    "elements_across_wheel": (1.0, 200.0, 4.0, 32.0),
 }
 
 
@@ -322,6 +330,24 @@ def _loading(t: _Table, wheel: WheelSpec) -> LoadingSpec:
     return LoadingSpec(**spec)
 
 
+def _rolling_cells(t: _Table, wheel: WheelSpec, loading: LoadingSpec) -> tuple[str, float | None]:
+    """``[model] cell_type`` and ``elements_across_wheel``: (cell type, elements across the wheel's
+    width or None).  Hexahedra apply to rolling a rigid wheel; across the wheel they default to
+    ``DEFAULT_ELEMENTS_ACROSS_WHEEL``."""
+    rolling_rigid = wheel.type == "rigid" and loading.protocol.startswith("rolling")
+    if t.has("cell_type") and not rolling_rigid:
+        raise InputError(t.key("cell_type"), "applies to rolling a rigid wheel (indentation blocks are tetrahedral, "
+                         "a pneumatic wheel's hexahedral)")
+    cell_type = t.choice("cell_type", CELL_TYPES, default=DEFAULT_CELL_TYPE)
+    across = t.quantity("elements_across_wheel", DIMENSIONLESS, default=None, positive=True)
+    if cell_type != "hexahedra":
+        if across is not None:
+            raise InputError(t.key("elements_across_wheel"), 'needs cell_type = "hexahedra" (tetrahedral element '
+                             "sizes are isotropic)")
+        return cell_type, None
+    return cell_type, DEFAULT_ELEMENTS_ACROSS_WHEEL if across is None else across
+
+
 def parse_scene(data: dict) -> Scene:
     """A scene from parsed TOML data (a dict); raises ``InputError`` naming the key."""
     top = _Table(data, "")
@@ -337,7 +363,8 @@ def parse_scene(data: dict) -> Scene:
     accuracy = model_table.choice("accuracy", ACCURACIES, default=DEFAULT_ACCURACY)
     refinement = model_table.quantity("refinement", DIMENSIONLESS, default=None)
     strain = default_volumetric_strain(loading.protocol, accuracy, refinement, wheel.type)
-    model = ModelSpec(accuracy=accuracy, refinement=refinement,
+    cell_type, across = _rolling_cells(model_table, wheel, loading)
+    model = ModelSpec(accuracy=accuracy, refinement=refinement, cell_type=cell_type, elements_across_wheel=across,
                       kinematics=model_table.choice("kinematics", KINEMATICS, default=DEFAULT_KINEMATICS),
                       linear_solver=model_table.choice("linear_solver", LINEAR_SOLVERS, default=DEFAULT_LINEAR_SOLVER),
                       volumetric_strain=model_table.choice("volumetric_strain", VOLUMETRIC_STRAINS, default=strain),

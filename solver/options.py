@@ -29,6 +29,17 @@ DEFAULT_LINEAR_SOLVER = "auto"
 #: (:func:`default_volumetric_strain`).
 VOLUMETRIC_STRAINS = ("cell-average", "pointwise")
 DEFAULT_VOLUMETRIC_STRAIN = "pointwise"
+#: element type of a rigid wheel's rolling block (``[model] cell_type``): 10-node tetrahedra, or
+#: structured 27-node hexahedra whose refined strip can be finer across the wheel's path than
+#: along it (B-bar: Q2-P1); indentation blocks are tetrahedral, a pneumatic wheel's hexahedral
+CELL_TYPES = ("tetrahedra", "hexahedra")
+DEFAULT_CELL_TYPE = "tetrahedra"
+#: elements across the wheel's width in a hexahedral rolling block (``[model]
+#: elements_across_wheel``): 8, four across the modelled half.  Measured on constant-load rolling
+#: (docs: speed and accuracy, "Constant-load rolling: mesh convergence"): the sinkage is set by the
+#: elements across the wheel more than by those along it; on the c-phi soil of case 5 (6 elements
+#: per d) it moves by 1 % or less from 7 to 14 elements across the width, by 9-18 % from 2 to 7.
+DEFAULT_ELEMENTS_ACROSS_WHEEL = 8.0
 #: Drucker-Prager to Mohr-Coulomb matching, scene spelling -> ``materials.mc_to_dp`` spelling
 MATCHING = {"compression": "compression", "extension": "extension", "plane-strain": "plane_strain",
             "plane-strain-flow": "plane_strain_flow"}

@@ -20,7 +20,7 @@ from .options import DEFAULT_REGULARISING_COHESION, MATCHING
 __all__ = ["layer_material", "layer_materials", "frictional_layers", "regularised_layers", "scene_penalty",
            "solver_options",
            "FRICTIONAL_PENALTY", "relaxation_hint", "non_associated", "wheel_geometry", "block_depth",
-           "indentation_mesh", "rolling_mesh", "SoilMaterials", "layer_materials"]
+           "indentation_mesh", "rolling_mesh", "rolling_mesh_options", "SoilMaterials", "layer_materials"]
 
 log = get_logger("run")
 
@@ -222,17 +222,39 @@ def pneumatic_mesh(scene, comm: MPI.Comm, rolling: bool = False):
     return build_tire_on_soil(comm, tire, block, soil, carcass), tire
 
 
+#: half width (in d) of a rolling block's refined strip, and its margin beside a hexahedral block's
+#: wheel (the strip covers the wheel's half width plus this margin when that is wider)
+PATH_HALF_WIDTH, PATH_MARGIN = 0.3, 0.15
+
+
+def rolling_mesh_options(scene) -> MeshOptions:
+    """Element sizes of the scene's rolling block: the elements per d of its ``[model]``, on
+    hexahedra (``cell_type``) with the refined strip's elements shortened across the path so that
+    ``elements_across_wheel`` of them span the wheel's width (never coarser than along it)."""
+    d, per_d = scene.wheel.diameter, scene.model.elements_per_d
+    if scene.model.cell_type != "hexahedra":
+        return MeshOptions.from_refinement(d, per_d)
+    across = scene.model.elements_across_wheel * (d / per_d) / scene.wheel.width
+    return MeshOptions.from_refinement(d, per_d, hexahedra=True, cross_refinement=max(1.0, across))
+
+
 def rolling_mesh(scene, comm: MPI.Comm, *, length: float | None = None, half_width: float = 1.5,
                  depth: float | None = None, stiff_length: float = 0.0):
     """Half rolling block for the scene (lengths in multiples of d).  Default length: the reference
-    3.5 d, or longer when the travel needs it (start + travel + 1 d ahead of the wheel)."""
+    3.5 d, or longer when the travel needs it (start + travel + 1 d ahead of the wheel).  Its
+    refined strip is ``PATH_HALF_WIDTH`` d wide each side of the path; on hexahedra at least the
+    wheel's half width plus ``PATH_MARGIN`` d, so the elements across span the whole wheel."""
     d = scene.wheel.diameter
     if length is None:
         length = max(3.5, ROLLING_START + scene.loading.travel / d + 1.0)
+    path = PATH_HALF_WIDTH
+    if scene.model.cell_type == "hexahedra":
+        path = max(path, 0.5 * scene.wheel.width / d + PATH_MARGIN)
     block = rolling_block(d, length=length, half_width=half_width,
                           depth=block_depth(scene) if depth is None else depth, cut="half",
-                          layers=_layer_thicknesses(scene), stiff_length=stiff_length)
-    return build_soil_block(comm, block, MeshOptions.from_refinement(d, scene.model.elements_per_d))
+                          layers=_layer_thicknesses(scene), stiff_length=stiff_length,
+                          path_half_width=min(path, 0.9 * half_width))
+    return build_soil_block(comm, block, rolling_mesh_options(scene))
 
 
 def wheel_geometry(spec):

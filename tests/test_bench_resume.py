@@ -276,3 +276,35 @@ def test_pose_retry_runs_both_variants_once_and_restores_the_default(benchmarks,
     with pytest.raises(RuntimeError):
         bench_pose_retry.main(["--soil", "clay", "--out", str(tmp_path / "other.json")])
     assert WheelRolling.POSE_HOLDS == default
+
+
+@pytest.mark.serial
+def test_rolling_cells_runs_each_mesh_variant_once(monkeypatch, tmp_path, capsys):
+    """bench_rolling_cells: a variant's scene carries its mesh keys over the example's, the mean
+    sinkage counts only full-load steps from 1 d of travel on, and a saved variant is not run again."""
+    monkeypatch.syspath_prepend(str(BENCHMARKS))
+    import bench_rolling_cells as cells
+    scene = cells.variant_scene(cells.SCENE, "hexahedra, 6 per d, 8 across, B-bar")
+    assert (scene.model.cell_type, scene.model.elements_across_wheel, scene.model.refinement) == ("hexahedra", 8, 6)
+    assert scene.model.volumetric_strain == "cell-average" and scene.model.accuracy == "standard"
+    assert cells.variant_scene(cells.SCENE, "tetrahedra, fast").model.volumetric_strain == "pointwise"
+    history = tmp_path / "history.csv"
+    history.write_text("travel_m,QV_N,sinkage_m\n0,133500,0.001\n1.0,133500,0.5\n1.6,133500,0.020\n"
+                       "2.0,133500,0.022\n3.0,52000,0.015\n")
+    assert cells.rolled_sinkage(history, 1.524, 133.5e3) == pytest.approx((0.021, 0.001))
+    ran = []
+
+    def run_variant(comm, path, name, work):
+        ran.append(name)
+        return {"variant": name, "scene": path.name, "status": "ok", "cells": 10, "dofs": 100, "steps": 5,
+                "newton_iterations": 20, "cuts": 0, "time_s": 100.0 * (len(ran) + 1), "ranks": 1,
+                "strain": "pointwise", "sinkage_mean": 0.02, "sinkage_std": 0.001, "steady_sinkage": None}
+
+    monkeypatch.setattr(cells, "run_variant", run_variant)
+    out = tmp_path / "cells.json"
+    first, second = list(cells.VARIANTS)[:2]
+    assert cells.main(["--variant", first, "--out", str(out)]) == 0
+    assert cells.main(["--variant", first, second, "--out", str(out)]) == 0
+    assert ran == [first, second]
+    text = capsys.readouterr().out
+    assert f"| {second} | pointwise | 10 | 100 | 5 | 20 | 0 | 20.00 ± 1.00 mm | not detected | 300 s (1) | 1.50 |" in text

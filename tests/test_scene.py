@@ -108,6 +108,8 @@ def test_si_conversion_and_defaults():
     ("model.plateau_tolerance", 0.5, "model.plateau_tolerance"),
     ("model.refinement", 1, "model.refinement"),
     ("model.refinement", "12 mm", "model.refinement"),
+    ("model.cell_type", "hexahedra", "model.cell_type"),                # indentation: tetrahedral
+    ("model.elements_across_wheel", 8, "model.elements_across_wheel"),  # needs hexahedra
 ])
 def test_bad_scene_one_line_exit_2(tmp_path, capsys, path, value, field):
     scene = tmp_path / "scene.toml"
@@ -118,6 +120,34 @@ def test_bad_scene_one_line_exit_2(tmp_path, capsys, path, value, field):
     lines = err.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith(f"rollsim: error: {field}: ")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["scene.toml"]  # nothing written
+
+
+def test_hexahedral_rolling_block_options():
+    """[model] cell_type / elements_across_wheel: rolling a rigid wheel only, 8 across by default,
+    refused on tetrahedra and out of range, named in the mesh's name."""
+    rolling = with_change("loading", {"protocol": "rolling-constant-load", "load": "133.5 kN", "travel": "3 m"})
+    assert parse_scene(rolling).model.cell_type == "tetrahedra"
+    assert parse_scene(rolling).model.elements_across_wheel is None
+    rolling["model"] = {"cell_type": "hexahedra", "accuracy": "fast"}
+    model = parse_scene(rolling).model
+    assert model.elements_across_wheel == 8 and model.mesh_name == "fast (hexahedra, 8 across the wheel)"
+    rolling["model"]["elements_across_wheel"] = 12
+    assert parse_scene(rolling).model.elements_across_wheel == 12
+    for value in (0, 500):
+        rolling["model"]["elements_across_wheel"] = value
+        with pytest.raises(InputError) as err:
+            parse_scene(rolling)
+        assert err.value.field == "model.elements_across_wheel"
+    rolling["model"] = {"cell_type": "tetrahedra", "elements_across_wheel": 8}
+    with pytest.raises(InputError, match="needs cell_type") as err:
+        parse_scene(rolling)
+    assert err.value.field == "model.elements_across_wheel"
+    tire = {"type": "pneumatic", "diameter": "1.2 m", "width": "0.4 m", "hub_diameter": "0.6 m",
+            "inflation": "600 kPa", "E_carcass": "200 MPa"}
+    rolling.update(wheel=tire, model={"cell_type": "hexahedra"})
+    with pytest.raises(InputError, match="applies to rolling a rigid wheel") as err:
+        parse_scene(rolling)
+    assert err.value.field == "model.cell_type"
 
 
 def test_two_layer_rules():

@@ -9,6 +9,7 @@ from typing import Callable
 import numpy as np
 from mpi4py import MPI
 
+from rollsim import compat
 from rollsim.files import atomic_write_text
 from rollsim.log import get_logger
 
@@ -200,6 +201,7 @@ class ProtocolRun:
         ct = run.contact
         model = {"symmetry": {4: "quarter", 2: "half", 1: "full"}[run.factor], "symmetry_factor": run.factor,
                  "accuracy": self.scene.model.accuracy, "elements_per_d": self.scene.model.elements_per_d,
+                 "cell_type": compat.cell_name(self.tagged.mesh),
                  "displacement_degree": run.problem.degree,
                  "kinematics": run.problem.kinematics, "linear_solver": run.problem.linear_solver,
                  "volumetric_strain": run.problem.volumetric_strain,
@@ -209,6 +211,8 @@ class ProtocolRun:
                  "relaxation_fallback_m": self.scene.model.relaxation_fallback,
                  "relaxed_spans_m": [list(span) for span in run.relaxed_spans],
                  "plateau_tolerance": run.problem.plateau_rtol}
+        if self.scene.model.elements_across_wheel is not None:
+            model["elements_across_wheel"] = self.scene.model.elements_across_wheel
         travel_fallback, relaxed_travel = self.travel_relaxation()
         if relaxed_travel is not None:
             model["travel_relaxation_fallback_m"] = travel_fallback
