@@ -85,7 +85,7 @@ class ModelSpec:
 
     accuracy: str = DEFAULT_ACCURACY
     refinement: float | None = None   # elements per wheel diameter under the wheel; None: the preset's
-    cell_type: str = DEFAULT_CELL_TYPE   # a rigid wheel's rolling block: tetrahedra or hexahedra
+    cell_type: str | None = None   # a rigid wheel's rolling block: tetrahedra or hexahedra; None: n/a
     elements_across_wheel: float | None = None   # hexahedra: across the wheel's width; None: no finer across
     kinematics: str = DEFAULT_KINEMATICS
     linear_solver: str = DEFAULT_LINEAR_SOLVER
@@ -330,14 +330,16 @@ def _loading(t: _Table, wheel: WheelSpec) -> LoadingSpec:
     return LoadingSpec(**spec)
 
 
-def _rolling_cells(t: _Table, wheel: WheelSpec, loading: LoadingSpec) -> tuple[str, float | None]:
+def _rolling_cells(t: _Table, wheel: WheelSpec, loading: LoadingSpec) -> tuple[str | None, float | None]:
     """``[model] cell_type`` and ``elements_across_wheel``: (cell type, elements across the wheel's
-    width or None).  Hexahedra apply to rolling a rigid wheel; across the wheel they default to
-    ``DEFAULT_ELEMENTS_ACROSS_WHEEL``."""
-    rolling_rigid = wheel.type == "rigid" and loading.protocol.startswith("rolling")
-    if t.has("cell_type") and not rolling_rigid:
-        raise InputError(t.key("cell_type"), "applies to rolling a rigid wheel (indentation blocks are tetrahedral, "
-                         "a pneumatic wheel's hexahedral)")
+    width), both None where they do not apply.  Hexahedra apply to rolling a rigid wheel; across
+    the wheel they default to ``DEFAULT_ELEMENTS_ACROSS_WHEEL``."""
+    if wheel.type != "rigid" or not loading.protocol.startswith("rolling"):
+        for key in ("cell_type", "elements_across_wheel"):
+            if t.has(key):
+                raise InputError(t.key(key), "applies to rolling a rigid wheel (indentation blocks are tetrahedral, "
+                                 "a pneumatic wheel's hexahedral)")
+        return None, None
     cell_type = t.choice("cell_type", CELL_TYPES, default=DEFAULT_CELL_TYPE)
     across = t.quantity("elements_across_wheel", DIMENSIONLESS, default=None, positive=True)
     if cell_type != "hexahedra":

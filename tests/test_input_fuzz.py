@@ -19,11 +19,11 @@ SCENE_KEYS = {
     "layer": ["model", "E", "nu", "thickness", "phi_dp", "c_dp", "c", "phi", "match", "dilation", "psi"],
     "loading": ["protocol", "max_sinkage", "load", "travel", "speed"],
     "model": ["accuracy", "kinematics", "linear_solver", "volumetric_strain", "relaxation_length",
-              "regularising_cohesion", "mesh"],
+              "regularising_cohesion", "cell_type", "elements_across_wheel", "mesh"],
 }
 WORDS = ["rigid", "pneumatic", "torus", "cylinder", "von-mises", "drucker-prager", "mohr-coulomb", "indentation",
          "rolling-continuous", "rolling-constant-load", "fast", "standard", "compression", "plane-strain",
-         "cell-average", "pointwise", "1.5 m", "0.4 m", "40 MPa", "100 kPa", "30 deg", "133.5 kN", "1,5 kPa",
+         "cell-average", "pointwise", "hexahedra", "tetrahedra", "1.5 m", "0.4 m", "40 MPa", "100 kPa", "30 deg", "133.5 kN", "1,5 kPa",
          "2 m/s", "-1 m", "1e400 Pa", "nan", "inf", "", "\u00e9", "{x}"]
 values = st.recursive(
     st.one_of(st.none(), st.booleans(), st.integers(-10**6, 10**6), st.floats(allow_nan=True, allow_infinity=True),

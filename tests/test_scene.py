@@ -109,7 +109,7 @@ def test_si_conversion_and_defaults():
     ("model.refinement", 1, "model.refinement"),
     ("model.refinement", "12 mm", "model.refinement"),
     ("model.cell_type", "hexahedra", "model.cell_type"),                # indentation: tetrahedral
-    ("model.elements_across_wheel", 8, "model.elements_across_wheel"),  # needs hexahedra
+    ("model.elements_across_wheel", 8, "model.elements_across_wheel"),  # rolling only
 ])
 def test_bad_scene_one_line_exit_2(tmp_path, capsys, path, value, field):
     scene = tmp_path / "scene.toml"
@@ -148,6 +148,16 @@ def test_hexahedral_rolling_block_options():
     with pytest.raises(InputError, match="applies to rolling a rigid wheel") as err:
         parse_scene(rolling)
     assert err.value.field == "model.cell_type"
+
+
+def test_summary_scene_echo_parses_back():
+    """The scene echoed in summary.json (``Scene.to_dict``) reads back as the same scene (the
+    report rebuilds it), for every example and a hexahedral rolling scene."""
+    from rollsim.studies.report import _scene_input
+    hexahedral = with_change("loading", {"protocol": "rolling-constant-load", "load": "133.5 kN", "travel": "3 m"})
+    hexahedral["model"] = {"cell_type": "hexahedra", "elements_across_wheel": 12}
+    for scene in [load_scene(p) for p in sorted(EXAMPLES.glob("*.toml"))] + [parse_scene(hexahedral)]:
+        assert parse_scene(_scene_input(scene.to_dict())) == scene
 
 
 def test_two_layer_rules():
