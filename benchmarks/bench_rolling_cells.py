@@ -17,12 +17,13 @@ from __future__ import annotations
 
 import argparse
 import csv
+import math
 import pathlib
 import tempfile
 
-import numpy as np
 from mpi4py import MPI
 
+import bench_rolling_protocols as protocols
 from _bench import add_results_arguments, dump_json, saved_results, show_table
 
 from rollsim.files import read_toml
@@ -50,13 +51,12 @@ def variant_scene(path: pathlib.Path, name: str):
 
 
 def rolled_sinkage(history: pathlib.Path, d: float, load: float) -> tuple[float, float]:
-    """Mean and standard deviation (m) of the sinkage over the steps rolled at the full load from
-    1 d of travel on (``history.csv`` of a constant-load run)."""
+    """Mean and standard deviation (m) of the sinkage over the steps rolled at the load from 1 d
+    of travel on (``history.csv`` of a constant-load run; as the convergence study's mean)."""
     with history.open() as f:
-        rows = [r for r in csv.DictReader(f)
-                if float(r["travel_m"]) >= d and abs(float(r["QV_N"]) - load) <= 2e-3 * load]
-    s = np.array([float(r["sinkage_m"]) for r in rows])
-    return (float(s.mean()), float(s.std())) if s.size else (float("nan"), float("nan"))
+        curve = [tuple(float(r[k]) for k in ("travel_m", "sinkage_m", "QV_N", "QH_N")) for r in csv.DictReader(f)]
+    st = protocols.settled(curve, load, d)
+    return (st["sinkage_mean"], st["sinkage_std"]) if st else (math.nan, math.nan)
 
 
 def run_variant(comm, path: pathlib.Path, name: str, work: pathlib.Path) -> dict:

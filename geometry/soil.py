@@ -27,6 +27,8 @@ STIFF_ZONE_TAG = 50
 
 #: Default wheel start position for rolling, x / d (reference: 0.4 d, on the stiff zone of 0.75 d).
 ROLLING_START = 0.4
+#: Default half width of a rolling block's refined strip each side of the path, in d.
+PATH_HALF_WIDTH = 0.3
 
 
 @dataclasses.dataclass(frozen=True)
@@ -148,7 +150,7 @@ class PlaneStrainBlock:
 
 def rolling_block(d: float, length: float = 3.5, half_width: float = 1.5, depth: float = 1.5,
                   cut: str = "half", layers: tuple[float, ...] = (), stiff_length: float = 0.75,
-                  path_half_width: float = 0.3, refined_depth: float = 0.4) -> SoilBlock:
+                  path_half_width: float = PATH_HALF_WIDTH, refined_depth: float = 0.4) -> SoilBlock:
     """Rolling block in multiples of the wheel diameter ``d`` (m): x in [0, length d].
 
     The refined strip runs along the whole wheel path (``|y| <= path_half_width d``, down to

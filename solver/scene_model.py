@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 from mpi4py import MPI
 
-from rollsim.geometry import (ROLLING_START, CylinderWheel, MeshOptions, PneumaticTire, TorusWheel,
+from rollsim.geometry import (PATH_HALF_WIDTH, ROLLING_START, CylinderWheel, MeshOptions, PneumaticTire, TorusWheel,
                               build_soil_block, build_tire_on_soil, indentation_block, rolling_block)
 from rollsim.log import get_logger
 
@@ -222,9 +222,9 @@ def pneumatic_mesh(scene, comm: MPI.Comm, rolling: bool = False):
     return build_tire_on_soil(comm, tire, block, soil, carcass), tire
 
 
-#: half width (in d) of a rolling block's refined strip, and its margin beside a hexahedral block's
-#: wheel (the strip covers the wheel's half width plus this margin when that is wider)
-PATH_HALF_WIDTH, PATH_MARGIN = 0.3, 0.15
+#: margin (in d) of a hexahedral rolling block's refined strip beside the wheel: the strip covers
+#: the wheel's half width plus this margin where that is wider than ``PATH_HALF_WIDTH``
+PATH_MARGIN = 0.15
 
 
 def rolling_mesh_options(scene) -> MeshOptions:

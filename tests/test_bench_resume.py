@@ -3,6 +3,7 @@ not solved again, and their tables compare like with like (no solving here)."""
 from __future__ import annotations
 
 import json
+import math
 import pathlib
 
 import numpy as np
@@ -289,9 +290,9 @@ def test_rolling_cells_runs_each_mesh_variant_once(monkeypatch, tmp_path, capsys
     assert scene.model.volumetric_strain == "cell-average" and scene.model.accuracy == "standard"
     assert cells.variant_scene(cells.SCENE, "tetrahedra, fast").model.volumetric_strain == "pointwise"
     history = tmp_path / "history.csv"
-    history.write_text("travel_m,QV_N,sinkage_m\n0,133500,0.001\n1.0,133500,0.5\n1.6,133500,0.020\n"
-                       "2.0,133500,0.022\n3.0,52000,0.015\n")
-    assert cells.rolled_sinkage(history, 1.524, 133.5e3) == pytest.approx((0.021, 0.001))
+    history.write_text("travel_m,QV_N,QH_N,sinkage_m\n0,133500,0,0.001\n1.0,133500,9e3,0.5\n1.6,133500,9e3,0.020\n"
+                       "2.0,133500,9e3,0.022\n2.4,133500,9e3,0.021\n3.0,52000,0,0.015\n")
+    assert cells.rolled_sinkage(history, 1.524, 133.5e3) == pytest.approx((0.021, math.sqrt(2 / 3) * 1e-3))
     ran = []
 
     def run_variant(comm, path, name, work):
