@@ -76,9 +76,7 @@ def main(argv=None) -> int:
     comm = MPI.COMM_WORLD
     setup_logging(comm, quiet=not args.progress)
     if args.table:
-        if comm.rank == 0:
-            print(table(saved_results(args.table)))
-        return 0
+        return show_table(comm, table, saved_results(args.table))
     results = saved_results(args.out)
     level = {"soil": args.soil, "strain": args.volumetric_strain, "refinement": args.refinement,
              "relaxation_length_mm": args.relaxation_length,

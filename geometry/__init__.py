@@ -6,15 +6,16 @@ from rollsim.geometry.mesh import (ACCURACY_REFINEMENT, InvertedElementError, Me
                                    MeshStats, TaggedMesh, mesh_quality)
 from rollsim.geometry.pair import (CylinderOnBlock, SphereOnBlock, build_block_on_block, build_cylinder_on_block,
                                    build_sphere_on_block)
-from rollsim.geometry.soil import (FACET_TAGS, PATH_HALF_WIDTH, ROLLING_START, STIFF_ZONE_TAG, PlaneStrainBlock, RefinedZone,
-                                   SoilBlock, build_plane_strain_block, build_soil_block, indentation_block,
+from rollsim.geometry.soil import (FACET_TAGS, PATH_HALF_WIDTH, ROLLING_START, STIFF_ZONE_TAG, PlaneStrainBlock,
+                                   RefinedZone, SoilBlock, build_plane_strain_block, build_soil_block, indentation_block,
                                    rolling_block)
 from rollsim.geometry.tire import (TIRE_CELL_TAGS, TIRE_FACET_TAGS, PneumaticTire, build_tire,
                                    build_tire_on_soil, pneumatic_tire)
 from rollsim.geometry.wheels import CylinderWheel, TorusWheel, build_wheel_surface
 
 __all__ = [
-    "ACCURACY_REFINEMENT", "FACET_TAGS", "PATH_HALF_WIDTH", "ROLLING_START", "STIFF_ZONE_TAG", "TIRE_CELL_TAGS", "TIRE_FACET_TAGS",
+    "ACCURACY_REFINEMENT", "FACET_TAGS", "PATH_HALF_WIDTH", "ROLLING_START", "STIFF_ZONE_TAG", "TIRE_CELL_TAGS",
+    "TIRE_FACET_TAGS",
     "CylinderOnBlock", "CylinderWheel", "InvertedElementError", "MeshOptions", "MeshQuality", "MeshStats",
     "PlaneStrainBlock", "PneumaticTire", "RefinedZone", "SoilBlock", "SphereOnBlock", "TaggedMesh", "TorusWheel",
     "build_block_on_block", "build_cylinder_on_block", "build_plane_strain_block", "build_soil_block",
