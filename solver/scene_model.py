@@ -18,9 +18,9 @@ from .materials import PHI_COMPRESSION_MATCH_LIMIT, DruckerPrager, VonMises, mc_
 from .options import DEFAULT_REGULARISING_COHESION, MATCHING
 
 __all__ = ["layer_material", "layer_materials", "frictional_layers", "regularised_layers", "scene_penalty",
-           "solver_options",
-           "FRICTIONAL_PENALTY", "relaxation_hint", "non_associated", "wheel_geometry", "block_depth",
-           "indentation_mesh", "rolling_mesh", "rolling_mesh_options", "SoilMaterials", "layer_materials"]
+           "solver_options", "FRICTIONAL_PENALTY", "relaxation_hint", "non_associated", "wheel_geometry",
+           "block_depth", "indentation_mesh", "rolling_mesh", "rolling_mesh_options", "path_half_width",
+           "SoilMaterials"]
 
 log = get_logger("run")
 
@@ -222,9 +222,15 @@ def pneumatic_mesh(scene, comm: MPI.Comm, rolling: bool = False):
     return build_tire_on_soil(comm, tire, block, soil, carcass), tire
 
 
-#: margin (in d) of a hexahedral rolling block's refined strip beside the wheel: the strip covers
-#: the wheel's half width plus this margin where that is wider than ``PATH_HALF_WIDTH``
+#: margin (in d) of a rolling block's refined strip beside the wheel: the strip covers the wheel's
+#: half width plus this margin where that is wider than ``PATH_HALF_WIDTH``
 PATH_MARGIN = 0.15
+
+
+def path_half_width(scene) -> float:
+    """Half width (in d) of the scene's refined strip along the wheel's path: ``PATH_HALF_WIDTH``,
+    or the wheel's half width plus ``PATH_MARGIN`` where that is wider (a wheel wider than 0.3 d)."""
+    return max(PATH_HALF_WIDTH, 0.5 * scene.wheel.width / scene.wheel.diameter + PATH_MARGIN)
 
 
 def rolling_mesh_options(scene) -> MeshOptions:
@@ -242,14 +248,11 @@ def rolling_mesh(scene, comm: MPI.Comm, *, length: float | None = None, half_wid
                  depth: float | None = None, stiff_length: float = 0.0):
     """Half rolling block for the scene (lengths in multiples of d).  Default length: the reference
     3.5 d, or longer when the travel needs it (start + travel + 1 d ahead of the wheel).  Its
-    refined strip is ``PATH_HALF_WIDTH`` d wide each side of the path; on hexahedra at least the
-    wheel's half width plus ``PATH_MARGIN`` d, so the elements across span the whole wheel."""
+    refined strip spans ``path_half_width`` each side of the path, the whole wheel and a margin."""
     d = scene.wheel.diameter
     if length is None:
         length = max(3.5, ROLLING_START + scene.loading.travel / d + 1.0)
-    path = PATH_HALF_WIDTH
-    if scene.model.cell_type == "hexahedra":
-        path = max(path, 0.5 * scene.wheel.width / d + PATH_MARGIN)
+    path = path_half_width(scene)
     block = rolling_block(d, length=length, half_width=half_width,
                           depth=block_depth(scene) if depth is None else depth, cut="half",
                           layers=_layer_thicknesses(scene), stiff_length=stiff_length,

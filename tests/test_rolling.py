@@ -112,6 +112,30 @@ def test_hexahedral_rolling_block_spans_the_wheel_with_the_elements_asked_for(co
     assert abs(summary["moment_Nm"]) < 1e-8 * summary["QV_N"] * D
 
 
+@pytest.mark.parametrize("cell_type", ["tetrahedra", "hexahedra"])
+def test_rolling_block_refined_strip_spans_a_wide_wheel(comm, monkeypatch, cell_type):
+    """The refined strip along the path keeps 0.3 d each side for the report wheel (b = 0.3 d) and
+    widens to the wheel's half width plus 0.15 d for a wider wheel, on either cell type."""
+    from rollsim.solver import scene_model
+    blocks = []
+
+    def capture(d, **kwargs):
+        blocks.append(kwargs)
+        raise StopIteration
+
+    monkeypatch.setattr(scene_model, "rolling_block", capture)
+    for width, expected in ((B, 0.3), (1.2 * D, 0.75)):
+        data = {"wheel": {"diameter": D, "width": width},
+                "soil": {"gamma": GAMMA, "layers": [{"model": "von-mises", "E": 40e6, "nu": 0.35, "c_dp": 2e5}]},
+                "loading": {"protocol": "rolling-continuous", "max_sinkage": 0.02 * D, "travel": 0.1 * D},
+                "model": {"refinement": 4, "cell_type": cell_type}}
+        scene = parse_scene(data)
+        assert scene_model.path_half_width(scene) == pytest.approx(expected)
+        with pytest.raises(StopIteration):
+            scene_model.rolling_mesh(scene, comm)
+        assert blocks[-1]["path_half_width"] == pytest.approx(expected)
+
+
 def test_towed_wheel_torque_balance(comm):
     """mu = 0.8: the rotation increment of every rolling step is found from zero axle torque
     (|M| <= 2e-3 Q_V d) as an unknown of the Newton system (two linear solves per iteration
