@@ -39,6 +39,7 @@ from __future__ import annotations
 import argparse
 import math
 import pathlib
+import re
 
 import numpy as np
 from mpi4py import MPI
@@ -171,7 +172,13 @@ def groups(results: list[dict]) -> dict[tuple[str, str], list[dict]]:
     out: dict[tuple[str, str], list[dict]] = {}
     for r in results:
         out.setdefault((r["soil"], formulation(r)), []).append(r)
-    return dict(sorted(out.items()))
+    return dict(sorted(out.items(), key=lambda item: (item[0][0], _natural(item[0][1]))))
+
+
+def _natural(label: str) -> list:
+    """Sort key of a label with its numbers by value ("8x" before "16x")."""
+    return [(0, float(t), "") if t.replace(".", "", 1).isdigit() else (1, 0.0, t)
+            for t in re.split(r"(\d+(?:\.\d+)?)", label)]
 
 
 def table(results: list[dict]) -> str:
