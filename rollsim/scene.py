@@ -14,13 +14,13 @@ from dataclasses import dataclass
 from rollsim.files import read_toml
 from rollsim.log import get_logger
 from rollsim.solver.options import (ACCURACIES, ACCURACY_REFINEMENT, CELL_TYPES, DEFAULT_ACCURACY,
-                                    DEFAULT_CELL_TYPE, DEFAULT_ELEMENTS_ACROSS_WHEEL, DEFAULT_KINEMATICS,
+                                    DEFAULT_ELEMENTS_ACROSS_WHEEL, DEFAULT_KINEMATICS,
                                     DEFAULT_LINEAR_SOLVER, DEFAULT_MATCH, DEFAULT_REGULARISING_COHESION,
                                     DEFAULT_RELAXATION_FALLBACK, DEFAULT_RELAXATION_LENGTH,
                                     DEFAULT_TRAVEL_RELAXATION_FALLBACK,
                                     DEFAULT_VOLUMETRIC_STRAIN, KINEMATICS,
-                                    LINEAR_SOLVERS, MATCHES, PLATEAU_RTOL, PROTOCOLS, VOLUMETRIC_STRAINS,
-                                    default_volumetric_strain)
+                                    LINEAR_SOLVERS, MATCHES, PLATEAU_RTOL, PROTOCOLS, ROLLING_HEXAHEDRA,
+                                    VOLUMETRIC_STRAINS, default_cell_type, default_volumetric_strain)
 from rollsim.units import (ANGLE, DIMENSIONLESS, FORCE, LENGTH, PRESSURE, UNIT_WEIGHT, InputError, Kind,
                            to_si)
 
@@ -98,9 +98,13 @@ class ModelSpec:
 
     @property
     def elements_per_d(self) -> float:
-        """Elements per wheel diameter in the refined zone: ``refinement`` if given, else the
-        ``accuracy`` preset's."""
-        return self.refinement if self.refinement is not None else ACCURACY_REFINEMENT[self.accuracy]
+        """Elements per wheel diameter in the refined zone (along the path on a hexahedral rolling
+        block): ``refinement`` if given, else the ``accuracy`` preset's."""
+        if self.refinement is not None:
+            return self.refinement
+        if self.cell_type == "hexahedra":
+            return ROLLING_HEXAHEDRA[self.accuracy][0]
+        return ACCURACY_REFINEMENT[self.accuracy]
 
     @property
     def mesh_name(self) -> str:
@@ -108,7 +112,8 @@ class ModelSpec:
         elements across the wheel."""
         name = self.accuracy if self.refinement is None else f"{self.refinement:g} elements per d"
         if self.elements_across_wheel is not None:
-            name += f" (hexahedra, {self.elements_across_wheel:g} across the wheel)"
+            along = f"{self.elements_per_d:g} per d, " if self.refinement is None else ""
+            name += f" (hexahedra, {along}{self.elements_across_wheel:g} across the wheel)"
         return name
 
 
@@ -330,24 +335,29 @@ def _loading(t: _Table, wheel: WheelSpec) -> LoadingSpec:
     return LoadingSpec(**spec)
 
 
-def _rolling_cells(t: _Table, wheel: WheelSpec, loading: LoadingSpec) -> tuple[str | None, float | None]:
+def _rolling_cells(t: _Table, wheel: WheelSpec, loading: LoadingSpec, accuracy: str,
+                   refinement: float | None) -> tuple[str | None, float | None]:
     """``[model] cell_type`` and ``elements_across_wheel``: (cell type, elements across the wheel's
-    width), both None where they do not apply.  Hexahedra apply to rolling a rigid wheel; across
-    the wheel they default to ``DEFAULT_ELEMENTS_ACROSS_WHEEL``."""
+    width), both None where they do not apply.  Hexahedra apply to rolling a rigid wheel, by
+    default on the ``standard`` and ``accurate`` presets (``default_cell_type``); across the wheel
+    they default to the preset's count (``ROLLING_HEXAHEDRA``), or to
+    ``DEFAULT_ELEMENTS_ACROSS_WHEEL`` with a ``refinement``."""
     if wheel.type != "rigid" or not loading.protocol.startswith("rolling"):
         for key in ("cell_type", "elements_across_wheel"):
             if t.has(key):
                 raise InputError(t.key(key), "applies to rolling a rigid wheel (indentation blocks are tetrahedral, "
                                  "a pneumatic wheel's hexahedral)")
         return None, None
-    cell_type = t.choice("cell_type", CELL_TYPES, default=DEFAULT_CELL_TYPE)
+    cell_type = t.choice("cell_type", CELL_TYPES, default=default_cell_type(accuracy, refinement))
     across = t.quantity("elements_across_wheel", DIMENSIONLESS, default=None, positive=True)
     if cell_type != "hexahedra":
         if across is not None:
             raise InputError(t.key("elements_across_wheel"), 'needs cell_type = "hexahedra" (tetrahedral element '
                              "sizes are isotropic)")
         return cell_type, None
-    return cell_type, DEFAULT_ELEMENTS_ACROSS_WHEEL if across is None else across
+    if across is None:
+        across = DEFAULT_ELEMENTS_ACROSS_WHEEL if refinement is not None else ROLLING_HEXAHEDRA[accuracy][1]
+    return cell_type, across
 
 
 def parse_scene(data: dict) -> Scene:
@@ -365,7 +375,7 @@ def parse_scene(data: dict) -> Scene:
     accuracy = model_table.choice("accuracy", ACCURACIES, default=DEFAULT_ACCURACY)
     refinement = model_table.quantity("refinement", DIMENSIONLESS, default=None)
     strain = default_volumetric_strain(loading.protocol, accuracy, refinement, wheel.type)
-    cell_type, across = _rolling_cells(model_table, wheel, loading)
+    cell_type, across = _rolling_cells(model_table, wheel, loading, accuracy, refinement)
     model = ModelSpec(accuracy=accuracy, refinement=refinement, cell_type=cell_type, elements_across_wheel=across,
                       kinematics=model_table.choice("kinematics", KINEMATICS, default=DEFAULT_KINEMATICS),
                       linear_solver=model_table.choice("linear_solver", LINEAR_SOLVERS, default=DEFAULT_LINEAR_SOLVER),

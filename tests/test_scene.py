@@ -123,14 +123,28 @@ def test_bad_scene_one_line_exit_2(tmp_path, capsys, path, value, field):
 
 
 def test_hexahedral_rolling_block_options():
-    """[model] cell_type / elements_across_wheel: rolling a rigid wheel only, 8 across by default,
-    refused on tetrahedra and out of range, named in the mesh's name."""
+    """[model] cell_type / elements_across_wheel: rolling a rigid wheel only; by default hexahedra
+    with B-bar on standard (6 per d along, 8 across) and accurate (8, 16), tetrahedra on fast and
+    with a refinement; refused on tetrahedra and out of range, named in the mesh's name."""
     rolling = with_change("loading", {"protocol": "rolling-constant-load", "load": "133.5 kN", "travel": "3 m"})
-    assert parse_scene(rolling).model.cell_type == "tetrahedra"
-    assert parse_scene(rolling).model.elements_across_wheel is None
+    expected = {"standard": ("hexahedra", 6, 8, "cell-average"), "accurate": ("hexahedra", 8, 16, "cell-average"),
+                "fast": ("tetrahedra", 8, None, "pointwise")}
+    for accuracy, cells in expected.items():
+        rolling["model"] = {"accuracy": accuracy}
+        model = parse_scene(rolling).model
+        assert (model.cell_type, model.elements_per_d, model.elements_across_wheel, model.volumetric_strain) == cells
+    assert model.mesh_name == "fast"
+    rolling["model"] = {}
+    assert parse_scene(rolling).model.mesh_name == "standard (hexahedra, 6 per d, 8 across the wheel)"
+    rolling["model"] = {"refinement": 12}                   # elements per d over the preset: tetrahedra
+    model = parse_scene(rolling).model
+    assert (model.cell_type, model.elements_per_d, model.elements_across_wheel) == ("tetrahedra", 12, None)
+    rolling["model"] = {"cell_type": "hexahedra", "refinement": 10}
+    assert parse_scene(rolling).model.elements_across_wheel == 8
     rolling["model"] = {"cell_type": "hexahedra", "accuracy": "fast"}
     model = parse_scene(rolling).model
-    assert model.elements_across_wheel == 8 and model.mesh_name == "fast (hexahedra, 8 across the wheel)"
+    assert model.elements_across_wheel == 8 and model.mesh_name == "fast (hexahedra, 6 per d, 8 across the wheel)"
+    assert model.volumetric_strain == "pointwise"
     rolling["model"]["elements_across_wheel"] = 12
     assert parse_scene(rolling).model.elements_across_wheel == 12
     for value in (0, 500):
