@@ -109,7 +109,7 @@ def default_cell_type(accuracy: str = DEFAULT_ACCURACY, refinement: float | None
     Measured on constant-load rolling (docs: speed and accuracy, "Constant-load rolling: mesh
     convergence"): the sinkage is set by the elements across the wheel more than by those along
     it.  On the case-5 soil B-bar on hexahedra with 8 elements across at 6 per d reads within 1 %
-    of twice as many across (+5 % from 6 to 8 per d at half as many across), in 4.8x the ``fast``
+    of twice as many across and 0.2 % of twice as many along the path, in 4.8x the ``fast``
     wall time, where B-bar on tetrahedra needs 12 elements per d (-4.5 % from 10) and the
     tetrahedral ``standard`` (20 per d) was estimated at 11-47 h per case.  ``fast`` keeps the
     tetrahedra, the cheapest run (pointwise, for screening)."""
