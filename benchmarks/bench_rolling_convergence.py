@@ -29,7 +29,8 @@ regularisation along the whole path, ``--fallbacks`` relaxes only the steps that
 ``rollsim run`` scene does, ``--length`` / ``--travel`` (d) on a longer block (both kept apart in
 the table), ``--path-refinement`` / ``--cross-refinement`` / ``--depth-refinement`` on hexahedra
 shorten the refined strip's elements along / across the path or in depth only (at 6-10 per d the
-contact arc is one or two elements long and the wheel's half width one or two elements wide).
+contact arc is one or two elements long and the wheel's half width one or two elements wide),
+``--travel-step`` (mm) rolls with fixed steps instead of the solver's (kept apart in the table).
 Each level keeps its sinkage along the travel (``travel_sinkage``); ``--progress`` prints a line
 per rolled step on stderr.  An existing ``--out`` file is resumed: the levels it holds are not
 solved again.
@@ -60,7 +61,7 @@ LENGTH, TRAVEL = 2.6, 1.5
 FALLBACK_ROUTE = "started over relaxed"
 #: values of the run keys that results saved before the key existed were run with
 DEFAULTS = {"relaxation_length_mm": 0.0, "fallbacks": False, "block_length_d": LENGTH, "travel_d": TRAVEL,
-            "cell_type": "tetrahedra", **dict.fromkeys(protocols.SHORTER, 1.0)}
+            "cell_type": "tetrahedra", "travel_step_mm": 0.0, **dict.fromkeys(protocols.SHORTER, 1.0)}
 SHORTER = protocols.SHORTER
 
 
@@ -73,13 +74,14 @@ def block_args(length: float = LENGTH, travel: float = TRAVEL) -> list[str]:
 
 def level_args(soil: str, refinement: float, strain: str, relaxation_length: float = 0.0,
                block: list[str] | None = None, fallbacks: bool = False, hexahedra: bool = False,
-               refinements: dict[str, float] | None = None, progress: bool = False):
+               refinements: dict[str, float] | None = None, progress: bool = False, travel_step: float = 0.0):
     """The constant-load run of ``soil`` at ``refinement`` elements per d on ``block`` (arguments of
     ``bench_rolling_protocols.py``; default :func:`block_args`; ``refinements``: the anisotropic
-    mesh fields by name; ``progress``: a line per rolled step), as parsed arguments."""
+    mesh fields by name; ``progress``: a line per rolled step; ``travel_step``: mm, 0 for the
+    solver's default), as parsed arguments."""
     return protocols.parser().parse_args(SOILS[soil] + (block or block_args()) + [
         "--refinement", f"{refinement:g}", "--volumetric-strain", strain, "--skip-continuous",
-        "--relaxation-length", f"{relaxation_length:g}"]
+        "--relaxation-length", f"{relaxation_length:g}", "--travel-step", f"{travel_step:g}"]
         + [a for k, v in (refinements or {}).items() for a in (f"--{k.replace('_', '-')}", f"{v:g}")]
         + ["--fallbacks"] * fallbacks + ["--hexahedra"] * hexahedra + ["--progress"] * progress)
 
@@ -122,6 +124,8 @@ def formulation(r: dict) -> str:
     length, travel = r.get("block_length_d", LENGTH), r.get("travel_d", TRAVEL)
     if (length, travel) != (LENGTH, TRAVEL):
         text += f", {length:g} d block, {travel:g} d travel"
+    if r.get("travel_step_mm", 0.0):
+        text += f", {r['travel_step_mm']:g} mm steps"
     return text
 
 
@@ -267,6 +271,8 @@ def main(argv=None) -> int:
     p.add_argument("--travel", type=float, default=TRAVEL, help="constant-load travel limit, d")
     p.add_argument("--hexahedra", action="store_true",
                    help="structured 27-node hexahedra (B-bar: Q2-P1; kept apart in the table)")
+    p.add_argument("--travel-step", type=float, default=0.0,
+                   help="travel step, mm (0: the solver's default; kept apart in the table)")
     for name, axis in SHORTER.items():
         p.add_argument(f"--{name.replace('_', '-')}", type=float, default=1.0,
                        help=f"with --hexahedra: the refined strip's elements this many times shorter {axis} "
@@ -297,13 +303,13 @@ def main(argv=None) -> int:
                    "relaxation_length_mm": args.relaxation_length, "fallbacks": args.fallbacks and FALLBACK_ROUTE,
                    "block_length_d": args.length, "travel_d": args.travel,
                    "cell_type": "hexahedra" if args.hexahedra else "tetrahedra",
-                   **refinements}
+                   "travel_step_mm": args.travel_step, **refinements}
             if any(all(r.get(k, DEFAULTS.get(k, 0.0)) == v for k, v in run.items()) for r in results):
                 if comm.rank == 0:
                     print(f"{formulation(run)}, {n:g} elements / d: in {args.out}, not solved again", flush=True)
                 continue
             level = level_args(args.soil, n, strain, args.relaxation_length, block_args(args.length, args.travel),
-                               args.fallbacks, args.hexahedra, refinements, args.progress)
+                               args.fallbacks, args.hexahedra, refinements, args.progress, args.travel_step)
             cl = keep_travel_sinkage(protocols.constant_load(comm, level.mu[0], level))
             results.append({**run, "ranks": comm.size, **cl})
             if comm.rank == 0:

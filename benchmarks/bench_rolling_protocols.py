@@ -48,6 +48,7 @@ from rollsim.solver.drivers.rolling_constant_load import measure_rut
 from rollsim.solver.options import DEFAULT_RELAXATION_FALLBACK, DEFAULT_TRAVEL_RELAXATION_FALLBACK
 from rollsim.solver.rolling import STEADY_MIN_TRAVEL, WheelRolling
 from rollsim.solver.rundir import TravelProgress
+from rollsim.solver.stepping import StepControl
 
 D, B, GAMMA = 1.524, 0.4572, 20e3
 #: the axis along which each anisotropic mesh field shortens the refined strip's hexahedra
@@ -80,6 +81,15 @@ def regularisation(args) -> dict:
     return kw
 
 
+def travel_control(travel: float, step_mm: float) -> StepControl | None:
+    """Constant-load travel steps of ``step_mm`` (mm; back to it after a cut), or ``None`` for the
+    solver's default (``WheelRolling.travel_step``)."""
+    if not step_mm:
+        return None
+    dx = 1e-3 * step_mm
+    return StepControl(t_end=travel, dt=dx, dt_min=1e-3 * dx, dt_max=dx, max_cuts=8, easy_iterations=10**6)
+
+
 def constant_load(comm, mu, args):
     t0 = time.perf_counter()
     mat = soil(args)
@@ -95,7 +105,8 @@ def constant_load(comm, mu, args):
             raise SolverDivergedError(f"press: {res.status} {res.reason}", None, [])
         progress = TravelProgress(args.cl_travel * D, D, enabled=args.progress and comm.rank == 0)
         ss = roll.roll_at_load(load, args.cl_travel * D, x_soft=args.stiff * D, steady_rtol=args.steady_rtol,
-                               min_travel=args.steady_min_travel * D, on_step=progress.update)
+                               min_travel=args.steady_min_travel * D, on_step=progress.update,
+                               control=travel_control(args.cl_travel * D, args.travel_step))
         L = roll.contact_length()
         # the rolled steps only: the lift-off moves the wheel vertically without a torque balance
         max_rel_moment = max(abs(st.moment) / (load * D) for st in roll.steps if st.travel > 0)
@@ -201,6 +212,8 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--path-half-width", type=float, default=0.3, help="half width of the refined strip, d")
     p.add_argument("--refined-depth", type=float, default=0.4, help="depth of the refined strip, d")
     p.add_argument("--cl-travel", type=float, default=1.3, help="constant-load travel limit, d")
+    p.add_argument("--travel-step", type=float, default=0.0,
+                   help="constant-load travel step, mm (0: the solver's default, WheelRolling.travel_step)")
     p.add_argument("--steady-rtol", type=float, default=0.02)
     p.add_argument("--steady-min-travel", type=float, default=STEADY_MIN_TRAVEL,
                    help="constant load: look for steady state after this travel (d) on the test soil")

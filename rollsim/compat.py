@@ -187,12 +187,23 @@ def set_bc(b, bcs, x0=None, scale: float = 1.0) -> None:
         petsc.set_bc(b, bcs, x0, scale)
 
 
-def cell_diameters(mesh, cells: np.ndarray) -> np.ndarray:
-    """Largest vertex-to-vertex distance of each of the local ``cells``."""
-    x = mesh.geometry.x
+def _cell_vertices(mesh, cells: np.ndarray) -> np.ndarray:
+    """Vertex coordinates of the local ``cells``, shape (cells, vertices per cell, 3)."""
     nv = {"interval": 2, "triangle": 3, "tetrahedron": 4, "quadrilateral": 4,
           "hexahedron": 8}[cell_name(mesh)]
     idx = cell_dofs(mesh.geometry.dofmap)[np.asarray(cells, dtype=np.int64), :nv].reshape(len(cells), nv)
-    pts = x[idx]                                           # (n, nv, 3)
+    return mesh.geometry.x[idx]
+
+
+def cell_diameters(mesh, cells: np.ndarray) -> np.ndarray:
+    """Largest vertex-to-vertex distance of each of the local ``cells``."""
+    pts = _cell_vertices(mesh, cells)
     diff = pts[:, :, None, :] - pts[:, None, :, :]
     return np.sqrt((diff ** 2).sum(-1)).max(axis=(1, 2))
+
+
+def cell_extents(mesh, cells: np.ndarray, axis: int) -> np.ndarray:
+    """Extent of each of the local ``cells`` along coordinate ``axis`` (largest minus smallest
+    vertex coordinate)."""
+    pts = _cell_vertices(mesh, cells)[:, :, axis]
+    return pts.max(axis=1) - pts.min(axis=1)

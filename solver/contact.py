@@ -179,7 +179,7 @@ class RigidWheelContact:
         if not self.alpha > 0:
             raise ValueError(f"penalty must be > 0, got {penalty}")
         self.E = float(E) if E is not None else max(m.E for m in pb.materials.values())
-        ids = tuple(int(i) for i in np.atleast_1d(contact_ids))
+        ids = self.contact_ids = tuple(int(i) for i in np.atleast_1d(contact_ids))
         self.h = float(h) if h is not None else contact_cell_size(msh, facet_tags, ids)
         self.kappa = self.alpha * self.E / self.h
         self.k_t = tangential_ratio * self.kappa
@@ -409,13 +409,15 @@ def _assemble_global(form, comm) -> float:
     return float(comm.allreduce(fem.assemble_scalar(form), op=MPI.SUM))
 
 
-def contact_cell_size(msh, facet_tags, ids) -> float:
-    """Smallest diameter of the cells touching the contact facets (global)."""
+def contact_cell_size(msh, facet_tags, ids, axis: int | None = None) -> float:
+    """Smallest diameter of the cells touching the contact facets (global, m); with ``axis``
+    their smallest extent along that coordinate instead."""
     tdim = msh.topology.dim
     msh.topology.create_connectivity(tdim - 1, tdim)
     facets = np.concatenate([facet_tags.find(i) for i in ids]).astype(np.int32)
     cells = compat.incident_entities(msh, facets, tdim - 1, tdim)
-    loc = float(compat.cell_diameters(msh, cells).min()) if cells.size else np.inf
+    sizes = compat.cell_diameters(msh, cells) if axis is None else compat.cell_extents(msh, cells, axis)
+    loc = float(sizes.min()) if cells.size else np.inf
     h = msh.comm.allreduce(loc, op=MPI.MIN)
     if not np.isfinite(h):
         raise ValueError(f"no facets with tags {ids}: cannot place the contact surface")

@@ -36,9 +36,10 @@ from typing import Callable
 import numpy as np
 from mpi4py import MPI
 
+from rollsim import compat
 from rollsim.log import get_logger
 
-from .contact import PoseDerivatives
+from .contact import PoseDerivatives, contact_cell_size
 from .indentation import LoadControlResult, WheelIndentation
 from .options import check_relaxation_length
 from .problem import NewtonReport
@@ -313,7 +314,17 @@ class WheelRolling:
         self._solves = 0
         self._attempts = 0
         self._t_last = time.perf_counter()
+        self.travel_step = self._travel_step(tagged)
         self.contact.set_pose(centre=self._centre(self.x_start, 0.0), angle=0.0)
+
+    def _travel_step(self, tagged) -> float:
+        """The constant-load travel step, m: a quarter of the contact element's diameter on
+        tetrahedra, a fifth of its length along the travel on hexahedra; about five steps per
+        element along the travel on either (a quarter of a hexahedron's diameter, its space
+        diagonal, is 2.5 and samples the element-passing ripple unevenly)."""
+        if compat.cell_name(tagged.mesh) != "hexahedron":
+            return 0.25 * self.contact.h
+        return 0.2 * contact_cell_size(tagged.mesh, tagged.facet_tags, self.contact.contact_ids, axis=0)
 
     # ------------------------------------------------------------------ pose
     def _centre(self, x: float, s: float) -> np.ndarray:
@@ -532,8 +543,8 @@ class WheelRolling:
         ``steady_qh_rtol``; the window counts only once the wheel centre has rolled ``min_travel``
         (m; default :data:`STEADY_MIN_TRAVEL` d) past ``x_soft``, so the overshoot after the stiff
         zone is not taken for steady rolling.  The wheel then rolls ``run_out`` windows further
-        (the rut behind it is then unloaded) and stops.  Default ``control``: steps of a quarter
-        element (after a cut, they grow back by 1.5x per step).  ``on_start_over``: as :meth:`roll`
+        (the rut behind it is then unloaded) and stops.  Default ``control``: steps of
+        :attr:`travel_step` (after a cut, they grow back by 1.5x per step).  ``on_start_over``: as :meth:`roll`
         (a steady state found before the roll started over is forgotten).
         Returns the :class:`SteadyState` (``reached = False`` when ``travel`` ran out first)."""
         if not load > 0 or not travel > 0:
@@ -571,9 +582,9 @@ class WheelRolling:
             if on_start_over is not None:
                 on_start_over(dropped)
 
-        if control is None:                 # steps of h/4 (>= 4 per detection window), back to h/4 after cuts
-            h = self.contact.h
-            control = StepControl(t_end=travel, dt=0.25 * h, dt_min=1e-3 * h, dt_max=0.25 * h, max_cuts=8,
+        if control is None:                 # back to the full step after cuts
+            dx = self.travel_step
+            control = StepControl(t_end=travel, dt=dx, dt_min=4e-3 * dx, dt_max=dx, max_cuts=8,
                                   easy_iterations=10**6)
         try:
             self.roll(travel, self.sinkage, on_step=monitor, control=control, on_start_over=started_over)

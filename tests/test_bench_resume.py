@@ -104,6 +104,29 @@ def test_rolling_convergence_keeps_hexahedra_apart_from_the_cell_count(benchmark
 
 
 @pytest.mark.serial
+def test_rolling_convergence_keeps_a_fixed_travel_step_apart(benchmarks, tmp_path, monkeypatch, capsys):
+    """A saved level at the solver's travel step is not the level at a fixed step: that one is
+    solved, with its step passed on to the roll, and labelled apart."""
+    convergence, _ = benchmarks
+    out = tmp_path / "levels.json"
+    out.write_text(json.dumps({"results": [_level(6.0, 0.018)]}))
+    assert _solved_level(convergence, monkeypatch, ["--travel-step", "25", "--out", str(out)],
+                         "travel_step") == (25.0,)
+    fixed = _level(6.0, 0.017, travel_step_mm=25.0)
+    assert convergence.formulation(fixed) == "cell-average, 25 mm steps"
+    out.write_text(json.dumps({"results": [_level(6.0, 0.018), fixed]}))
+    monkeypatch.setattr(convergence.protocols, "constant_load",
+                        lambda *a: pytest.fail("a saved level was solved again"))
+    assert convergence.main(["--soil", "case5", "--refinement", "6", "--volumetric-strain", "cell-average",
+                             "--travel-step", "25", "--out", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "not solved again" in text and "| case5 | cell-average, 25 mm steps | 6 |" in text
+    control = convergence.protocols.travel_control(2.0, 25.0)
+    assert (control.t_end, control.dt, control.dt_max) == (2.0, 0.025, 0.025)
+    assert convergence.protocols.travel_control(2.0, 0.0) is None
+
+
+@pytest.mark.serial
 def test_rolling_convergence_passes_progress_to_the_level(benchmarks, tmp_path, monkeypatch):
     """``--progress`` asks the level's roll for a line per step; without it the roll is quiet."""
     convergence, _ = benchmarks

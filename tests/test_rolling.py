@@ -118,6 +118,29 @@ def test_hexahedral_rolling_block_spans_the_wheel_with_the_elements_asked_for(co
     assert abs(summary["moment_Nm"]) < 1e-8 * summary["QV_N"] * D
 
 
+def test_constant_load_travel_step_is_a_fifth_of_a_hexahedron_along_the_travel(comm, monkeypatch):
+    """Constant-load rolling steps by about a fifth of the contact element's length along the
+    travel: a quarter of the diameter on tetrahedra, a fifth of the length along the travel on
+    hexahedra (not a quarter of their space diagonal), and roll_at_load steps by it."""
+    from rollsim.solver.scene_model import rolling_mesh
+    wheel = CylinderWheel(D, B, B / 12)
+    tets = WheelRolling(_tiny(comm), wheel, CLAY)
+    assert tets.travel_step == pytest.approx(0.25 * tets.contact.h)
+    hexes = WheelRolling(rolling_mesh(_hexahedral_scene(8), comm, **BLOCK), wheel, CLAY)
+    assert hexes.travel_step == pytest.approx(0.2 * D / 4, rel=0.05)        # 4 elements per d along
+    assert hexes.travel_step < 0.25 * hexes.contact.h / 1.4
+    controls = []
+
+    def capture(travel, s_target, control=None, **kwargs):
+        controls.append(control)
+        raise RuntimeError("stop")
+
+    monkeypatch.setattr(hexes, "roll", capture)
+    with pytest.raises(RuntimeError, match="stop"):
+        hexes.roll_at_load(1e5, 0.1 * D)
+    assert controls[0].dt == controls[0].dt_max == pytest.approx(hexes.travel_step)
+
+
 @pytest.mark.parametrize("cell_type", ["tetrahedra", "hexahedra"])
 def test_rolling_block_refined_strip_spans_a_wide_wheel(comm, monkeypatch, cell_type):
     """The refined strip along the path keeps 0.3 d each side for the report wheel (b = 0.3 d) and
