@@ -321,7 +321,7 @@ class WheelRolling:
         """The constant-load travel step, m: a quarter of the contact element's diameter on
         tetrahedra, a fifth of its length along the travel on hexahedra; about five steps per
         element along the travel on either (a quarter of a hexahedron's diameter, its space
-        diagonal, is 2.5 and samples the element-passing ripple unevenly)."""
+        diagonal, gives about 2.5 and samples the element-passing ripple unevenly)."""
         if compat.cell_name(tagged.mesh) != "hexahedron":
             return 0.25 * self.contact.h
         return 0.2 * contact_cell_size(tagged.mesh, tagged.facet_tags, self.contact.contact_ids, axis=0)
