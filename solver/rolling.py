@@ -51,7 +51,8 @@ __all__ = ["WheelRolling", "RollingStep", "with_stiff_zone", "SteadyState", "det
 
 log = get_logger("solver")
 
-#: travel stepping, in units of the contact element size h (scaled in :meth:`WheelRolling.roll`)
+#: travel stepping, in units of four travel steps (on tetrahedra the contact element's diameter;
+#: scaled in :meth:`WheelRolling.roll`)
 DEFAULT_ROLL_CONTROL = dict(dt=0.25, dt_min=1e-3, dt_max=0.5, easy_iterations=8, max_cuts=8, grow=1.5)
 #: constant load: travel of the wheel centre on the test soil (past the stiff start zone), in d,
 #: before steady state is looked for.  Leaving the stiff zone the wheel overshoots, and one
@@ -314,6 +315,7 @@ class WheelRolling:
         self._solves = 0
         self._attempts = 0
         self._t_last = time.perf_counter()
+        self.hexahedral = compat.cell_name(tagged.mesh) == "hexahedron"
         self.travel_step = self._travel_step(tagged)
         self.contact.set_pose(centre=self._centre(self.x_start, 0.0), angle=0.0)
 
@@ -322,7 +324,7 @@ class WheelRolling:
         tetrahedra, a fifth of its length along the travel on hexahedra; about five steps per
         element along the travel on either (a quarter of a hexahedron's diameter, its space
         diagonal, gives about 2.5 and samples the element-passing ripple unevenly)."""
-        if compat.cell_name(tagged.mesh) != "hexahedron":
+        if not self.hexahedral:
             return 0.25 * self.contact.h
         return 0.2 * contact_cell_size(tagged.mesh, tagged.facet_tags, self.contact.contact_ids, axis=0)
 
@@ -418,8 +420,9 @@ class WheelRolling:
              on_start_over: Callable[[int], None] | None = None) -> list[RollingStep]:
         """Translate the wheel by ``travel`` (m) in +x, its sinkage ramped linearly from the current
         value to ``s_target`` over the first ``ramp`` metres of travel (default: all of it), then
-        held.  ``dx``: first travel step (default h/4, h the contact element size; grows to h/2
-        after easy steps, cut on divergence).  After a failure the roll starts over relaxed (see
+        held.  ``dx``: first travel step (default :attr:`travel_step`; on tetrahedra it grows to
+        twice that after easy steps, on hexahedra it stays, so that the element-passing ripple is
+        sampled about five times per element; cut on divergence).  After a failure the roll starts over relaxed (see
         ``travel_relaxation_fallback``): the steps it rolled are dropped, and ``on_start_over(n)``
         is told how many.  Returns all steps; ``SolverDivergedError`` (state at the last converged
         step) on failure."""
@@ -428,9 +431,11 @@ class WheelRolling:
         ramp = travel if ramp is None else float(ramp)
         if not ramp > 0:
             raise ValueError(f"ramp must be > 0, got {ramp}")
-        h = self.contact.h
         if control is None:
+            h = 4.0 * self.travel_step        # the contact element's diameter on tetrahedra
             c = dict(DEFAULT_ROLL_CONTROL)
+            if self.hexahedral:
+                c["dt_max"] = c["dt"]
             if dx is not None:
                 c["dt"] = dx / h
                 c["dt_max"] = max(c["dt_max"], c["dt"])

@@ -114,14 +114,16 @@ def test_hexahedral_rolling_block_spans_the_wheel_with_the_elements_asked_for(co
     model = summary["model"]
     assert model["cell_type"] == "hexahedron" and model["elements_across_wheel"] == 8
     assert model["elements_per_d"] == 6 and model["volumetric_strain"] == "cell-average"
+    assert model["travel_step_m"] == pytest.approx(0.2 * D / 6, rel=0.05)   # a fifth of an element along
     assert summary["travel_m"] == pytest.approx(0.1 * D) and summary["QH_N"] > 0
     assert abs(summary["moment_Nm"]) < 1e-8 * summary["QV_N"] * D
 
 
-def test_constant_load_travel_step_is_a_fifth_of_a_hexahedron_along_the_travel(comm, monkeypatch):
-    """Constant-load rolling steps by about a fifth of the contact element's length along the
-    travel: a quarter of the diameter on tetrahedra, a fifth of the length along the travel on
-    hexahedra (not a quarter of their space diagonal), and roll_at_load steps by it."""
+def test_travel_step_is_a_fifth_of_a_hexahedron_along_the_travel(comm, monkeypatch):
+    """Rolling steps by about a fifth of the contact element's length along the travel: a quarter
+    of the diameter on tetrahedra, a fifth of the length along the travel on hexahedra (not a
+    quarter of their space diagonal).  roll_at_load steps by it; the continuous roll starts with
+    it and grows to twice it on tetrahedra only."""
     from rollsim.solver.scene_model import rolling_mesh
     wheel = CylinderWheel(D, B, B / 12)
     tets = WheelRolling(_tiny(comm), wheel, CLAY)
@@ -139,6 +141,18 @@ def test_constant_load_travel_step_is_a_fifth_of_a_hexahedron_along_the_travel(c
     with pytest.raises(RuntimeError, match="stop"):
         hexes.roll_at_load(1e5, 0.1 * D)
     assert controls[0].dt == controls[0].dt_max == pytest.approx(hexes.travel_step)
+    monkeypatch.undo()
+
+    def capture_run(set_load, control, on_t, **kwargs):
+        controls.append(control)
+        raise RuntimeError("stop")
+
+    for roll, grow in ((tets, 2.0), (hexes, 1.0)):
+        monkeypatch.setattr(roll, "_run", capture_run)
+        with pytest.raises(RuntimeError, match="stop"):
+            roll.roll(0.1 * D, 0.0)
+        assert controls[-1].dt == pytest.approx(roll.travel_step)
+        assert controls[-1].dt_max == pytest.approx(grow * roll.travel_step)
 
 
 @pytest.mark.parametrize("cell_type", ["tetrahedra", "hexahedra"])

@@ -359,7 +359,8 @@ class RollingRun(ProtocolRun):
         last = self.rows[-1] if self.rows else {}
         summary = super().summary(status, reason, travel_m=last.get("travel_m", 0.0),
                                   moment_Nm=last.get("moment_Nm", 0.0), rotation_rad=self.roll.rotation, **results)
-        summary["model"].update(x_start_m=self.roll.x_start, moment_rtol=self.roll.moment_rtol)
+        summary["model"].update(x_start_m=self.roll.x_start, moment_rtol=self.roll.moment_rtol,
+                                travel_step_m=self.roll.travel_step)
         if self.roll.travel_failures:
             summary["model"]["rate_independent_travel_failed_at_m"] = list(self.roll.travel_failures)
         return summary
