@@ -28,11 +28,14 @@ For each friction coefficient mu:
 
 Prints s_cl, s_cont and their difference (the agreement criterion is 5 %), Q_H of both,
 the friction effect on the steady sinkage (mu vs the first mu), wall times, steps and linear solves.
+``--table`` prints the held Q_V of saved runs as a Markdown table without solving, each change
+against the row above with the same strain and elements per d (mesh convergence at a held sinkage).
 """
 from __future__ import annotations
 
 import argparse
 import dataclasses
+import json
 import time
 
 import numpy as np
@@ -156,7 +159,7 @@ def continuous(comm, mu, args, s_hold=None):
     roll = WheelRolling(_block(comm, args, 0.0, args.cont_length), CylinderWheel(D, B, B / 12), mat, gamma=GAMMA,
                         friction=mu, volumetric_strain=args.volumetric_strain, **regularisation(args))
     roll.gravity_step()
-    out = {"mu": mu, "status": "ok", "s_hold": s_hold}
+    out = {"mu": mu, "status": "ok", "s_hold": s_hold, "dofs": roll.n_dofs}
     s_end = args.s_end * D if s_hold is None else s_hold
     try:
         roll.press(args.s0 * D)
@@ -238,12 +241,52 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--skip-continuous", action="store_true")
     p.add_argument("--skip-constant-load", action="store_true")
     p.add_argument("--out")
+    p.add_argument("--table", nargs="+", metavar="JSON", help="print the held Q_V of saved runs and stop")
     return p
+
+
+def hold_table(paths) -> str:
+    """Markdown table of the held runs in ``paths`` (JSON files of this script), sorted by strain,
+    elements per d and mesh; each change is against the previous row of the same strain and
+    elements per d."""
+    rows = []
+    for path in paths:
+        with open(path) as f:
+            saved = json.load(f)
+        a = saved["args"]
+        for r in saved["results"]:
+            h = r.get("hold")
+            if not h or "QV_hold" not in h:
+                continue
+            shorter = [f"{a.get(k, 1.0):g}x {axis}" for k, axis in SHORTER.items() if a.get(k, 1.0) != 1.0]
+            rows.append(((a["volumetric_strain"], a["refinement"] or 0.0, a.get("cross_refinement", 1.0),
+                          a.get("path_refinement", 1.0), a.get("depth_refinement", 1.0)), a, h, ", ".join(shorter)))
+    rows.sort(key=lambda row: row[0])
+    dofs = any("dofs" in h for _, _, h, _ in rows)          # not kept by runs of earlier versions
+    head = ["strain", "elements / d", "refined strip", "μ", "held sinkage"] + ["dofs"] * dofs + [
+        "Q_V (± std)", "change", "Q_H", "steps", "Newton its", "cuts", "wall time"]
+    lines = ["| " + " | ".join(head) + " |", "|---" * len(head) + "|"]
+    prev = {}
+    for key, a, h, shorter in rows:
+        q = h["QV_hold"]
+        group = key[:2]
+        change = f"{100 * (q / prev[group] - 1):+.1f} %" if group in prev else ""
+        prev[group] = q
+        cells = [a["volumetric_strain"], f"{a['refinement']:g}" if a["refinement"] else a["accuracy"],
+                 shorter or "isotropic", f"{h['mu']:g}", f"{1e3 * h['s_hold']:.2f} mm"] + [
+            str(h.get("dofs", ""))] * dofs + [
+            f"{q / 1e3:.1f} ± {h['QV_hold_std'] / 1e3:.1f} kN", change, f"{h['QH_hold'] / 1e3:.1f} kN",
+            str(h["steps"]), str(h["newton_iterations"]), str(h["cuts"]), f"{h['time_s']:.0f} s"]
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
 
 
 def main(argv=None) -> int:
     p = parser()
     args = p.parse_args(argv)
+    if args.table:
+        print(hold_table(args.table))
+        return 0
     comm = MPI.COMM_WORLD
     setup_logging(comm, quiet=not args.progress)
     results = []

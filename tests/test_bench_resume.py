@@ -332,3 +332,23 @@ def test_rolling_cells_runs_each_mesh_variant_once(monkeypatch, tmp_path, capsys
     assert ran == [first, second]
     text = capsys.readouterr().out
     assert f"| {second} | pointwise | 10 | 100 | 5 | 20 | 0 | 20.00 ± 1.00 mm | not detected | 300 s (1) | 1.50 |" in text
+
+
+@pytest.mark.serial
+def test_held_sinkage_table_compares_like_with_like(benchmarks, tmp_path, capsys):
+    """The held-sinkage table sorts the runs by strain and mesh and gives each the change of Q_V
+    against the coarser mesh of the same strain and elements per d only."""
+    convergence, _ = benchmarks
+    protocols = convergence.protocols
+    paths = []
+    for strain, across, q in (("pointwise", 4.0, 110e3), ("pointwise", 2.0, 100e3), ("cell-average", 2.0, 90e3)):
+        args = {"volumetric_strain": strain, "refinement": 6.0, "accuracy": "fast", "cross_refinement": across}
+        hold = {"mu": 0.0, "s_hold": 0.03, "QV_hold": q, "QV_hold_std": 1e3, "QH_hold": 1e4, "steps": 60,
+                "newton_iterations": 400, "cuts": 0, "time_s": 10.0}
+        paths.append(tmp_path / f"{strain}_{across:g}.json")
+        paths[-1].write_text(json.dumps({"args": args, "results": [{"hold": hold}, {"hold": None}]}))
+    assert protocols.main(["--table"] + [str(p) for p in paths]) == 0
+    rows = [line for line in capsys.readouterr().out.splitlines() if line.startswith("| ")][1:]
+    assert [r.split(" | ")[2] for r in rows] == ["2x across the path"] * 2 + ["4x across the path"]
+    assert rows[0].startswith("| cell-average") and "%" not in rows[0] and "%" not in rows[1]
+    assert "+10.0 %" in rows[2] and "dofs" not in rows[2]
