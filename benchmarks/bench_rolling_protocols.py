@@ -262,7 +262,7 @@ def hold_table(paths) -> str:
             rows.append(((a["volumetric_strain"], a["refinement"] or 0.0, a.get("cross_refinement", 1.0),
                           a.get("path_refinement", 1.0), a.get("depth_refinement", 1.0)), a, h, ", ".join(shorter)))
     rows.sort(key=lambda row: row[0])
-    dofs = any("dofs" in h for _, _, h, _ in rows)          # not kept by runs of earlier versions
+    dofs = all("dofs" in h for _, _, h, _ in rows) and bool(rows)   # not kept by runs of earlier versions
     head = ["strain", "elements / d", "refined strip", "μ", "held sinkage"] + ["dofs"] * dofs + [
         "Q_V (± std)", "change", "Q_H", "steps", "Newton its", "cuts", "wall time"]
     lines = ["| " + " | ".join(head) + " |", "|---" * len(head) + "|"]
