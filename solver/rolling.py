@@ -422,9 +422,9 @@ class WheelRolling:
         value to ``s_target`` over the first ``ramp`` metres of travel (default: all of it), then
         held.  ``dx``: first travel step (default :attr:`travel_step`; on tetrahedra it grows to
         twice that after easy steps, on hexahedra it stays, so that the element-passing ripple is
-        sampled about five times per element; cut on divergence).  After a failure the roll starts over relaxed (see
-        ``travel_relaxation_fallback``): the steps it rolled are dropped, and ``on_start_over(n)``
-        is told how many.  Returns all steps; ``SolverDivergedError`` (state at the last converged
+        sampled about five times per element; cut on divergence).  After a failure the roll
+        starts over relaxed (see ``travel_relaxation_fallback``): the steps it rolled are dropped,
+        and ``on_start_over(n)`` is told how many.  Returns all steps; ``SolverDivergedError`` (state at the last converged
         step) on failure."""
         if not travel > 0:
             raise ValueError(f"travel must be > 0, got {travel}")
