@@ -27,6 +27,7 @@ the forms' sparsity (contact of two bodies, ``solver/contact_pair.py``).  A cell
 """
 from __future__ import annotations
 
+import contextlib
 import math
 import time
 from dataclasses import dataclass, field
@@ -923,6 +924,24 @@ class PlasticityProblem:
         finally:
             for vec in (y0, x_old, *Y):
                 vec.destroy()
+
+    @contextlib.contextmanager
+    def line_search(self, kind: str):
+        """Run the solves inside the ``with`` block with the SNES line search ``kind`` (``"basic"``:
+        full Newton steps, ``"bt"``: backtracking), then restore the problem's own."""
+        self._compile()
+        own = self.petsc_options.get("snes_linesearch_type", "basic")
+
+        def use(line_search: str) -> None:
+            self.petsc_options["snes_linesearch_type"] = line_search
+            self._push_options()
+            self.snes.setFromOptions()
+
+        use(kind)
+        try:
+            yield
+        finally:
+            use(own)
 
     def reset_linear_solver(self) -> None:
         """Give SNES a fresh KSP with the same options.  After a PETSc error inside SNES (e.g.

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import gc
+import os
 import pathlib
 import shutil
 import tempfile
@@ -35,9 +36,17 @@ def tmp_mpi_path(comm):
         shutil.rmtree(path, ignore_errors=True)
 
 
+def pytest_collection_modifyitems(items):
+    """Slow tests first: the serial phase's workers then share them out before the short ones."""
+    items.sort(key=lambda item: item.get_closest_marker("slow") is None)   # a stable sort
+
+
 def pytest_runtest_setup(item):
     if item.get_closest_marker("serial") and MPI.COMM_WORLD.size > 1:
         pytest.skip("serial-only test")
+    if (item.get_closest_marker("slow") and MPI.COMM_WORLD.size > 1
+            and os.environ.get("ROLLSIM_SLOW_IN_PARALLEL", "0") != "1"):
+        pytest.skip("slow: checked in the serial phase (ROLLSIM_SLOW_IN_PARALLEL=1 runs it here)")
 
 
 @pytest.fixture(autouse=True)

@@ -108,7 +108,7 @@ def _press(comm, mu, delta=0.004):
     return pb, ct
 
 
-@pytest.mark.parametrize("motion", ["slide", "roll", "roll-backwards"])
+@pytest.mark.parametrize("motion", ["slide", pytest.param("roll", marks=pytest.mark.slow), "roll-backwards"])
 def test_coulomb_friction_sliding_and_rolling(comm, motion):
     """Press the cylinder (elastic soil), then move it sideways by dx = 10 mm, 25 elastic-slip
     lengths: sliding (no rotation) makes every contact point slip, so the drag is Q_H = mu Q_V

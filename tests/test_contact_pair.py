@@ -298,6 +298,7 @@ def test_patch_test_of_blocks_with_unlike_facets(comm, hexahedra):
     assert ct.contact_area() == pytest.approx(W_BLOCKS ** 2, rel=1e-12)      # the whole face, sampled
 
 
+@pytest.mark.slow
 def test_pair_tangent_on_quadrilateral_facets(comm):
     """Hexahedra (facets of 9 nodes), Coulomb friction: the unlike blocks' lateral expansion
     slides the faces on each other, part of the interface sticking; the tangent times a direction

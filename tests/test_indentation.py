@@ -53,7 +53,6 @@ def test_elastic_wheel_stiffness_matches_flat_punch_estimate(comm):
 
 
 # ------------------------------------------------------------------ 3D indentation vs bearing capacity
-@pytest.mark.slow
 @pytest.mark.parametrize("case", [2, 5])
 def test_indentation_report_case_vs_bearing_capacity(comm, case):
     """Report cases (studies/data/cases_indentation.csv) 2 (von Mises c_dp = 200 kPa) and 5 (DP 27.5 deg,
@@ -94,6 +93,7 @@ def _frictional(comm, c_reg, phi_deg=40.0):
 _FRICTIONAL_CONTROL = dict(dt=0.1, dt_min=1e-4, dt_max=0.25, easy_iterations=15, max_cuts=10)
 
 
+@pytest.mark.slow
 def test_purely_frictional_soil_with_gravity_converges(comm):
     """c = 0, phi = 40 deg, psi = 0 with gravity, mu = 0.8: indentation to s/d = 0.03 converges (the
     runs to s/d = 0.1 for phi = 35/40/45 are in benchmarks/bench_frictional_wheel.py).

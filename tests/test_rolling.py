@@ -311,6 +311,7 @@ def test_relaxation_converges_to_rate_independent_rolling(comm):
 SAND_13 = {"model": "drucker-prager", "E": 40e6, "nu": 0.35, "phi_dp": 61.6, "c_dp": 18.5e3}   # layered case 13
 
 
+@pytest.mark.slow
 def test_travel_fallback_lets_non_associated_sand_roll(comm, tmp_mpi_path):
     """Dense sand with non-associated flow (layered case 13: phi_dp = 61.6 deg, psi = 0), plain
     scene: Newton fails during the roll on the unregularised soil; the roll starts over relaxed by
@@ -523,6 +524,7 @@ def test_failed_lift_off_keeps_the_rolling_result(comm, tmp_mpi_path, monkeypatc
 
 
 @pytest.mark.serial
+@pytest.mark.slow
 def test_constant_load_rolling(tmp_mpi_path):
     """rolling-constant-load through run_scene (fast mesh, short block, serial; the report-size
     runs are in benchmarks/bench_rolling_protocols.py): Q_V is held to load_rtol at every rolled step, the wheel leaves the stiff start zone and sinks

@@ -28,6 +28,7 @@ def _smallest_lab_point(series: str):
             float(r["QV_N"]))
 
 
+@pytest.mark.slow
 def test_lab_small_wheel_held_at_smallest_sinkage(comm):
     """Where the clay's elasticity matters most (s/d = 0.012), steady FE rolling at the held
     sinkage over-predicts the measured force (13 N) but by less than the rigid-plastic model

@@ -411,6 +411,24 @@ def test_step_cutting_and_clean_failure(comm):
     assert np.isfinite(fo.pressure())
 
 
+def test_line_search_switch_is_undone(comm):
+    """``problem.line_search(kind)`` sets the SNES line search for the block only, also when the
+    block raises (the towed tire inflates with full steps, then rolls with backtracking)."""
+    from petsc4py import PETSc
+
+    from rollsim.solver import StripFooting, strip_footing_mesh
+    fo = StripFooting(strip_footing_mesh(comm, 1.0, 2), von_mises_from_tresca(E, NU, C),
+                      petsc_options={"snes_linesearch_type": "bt"})
+    pb = fo.problem
+    key = pb.options_prefix + "snes_linesearch_type"
+    with pytest.raises(RuntimeError, match="inside"):
+        with pb.line_search("basic"):
+            assert PETSc.Options()[key] == "basic" == pb.petsc_options["snes_linesearch_type"]
+            raise RuntimeError("inside")
+    assert PETSc.Options()[key] == "bt" == pb.petsc_options["snes_linesearch_type"]
+    assert fo.run(0.02).limit_pressure > 0
+
+
 def test_newton_stops_at_a_residual_plateau(comm):
     """A residual that repeats itself (within 0.1 % of the value one or two iterations before, three
     iterations running: a flat plateau or a two-cycle) ends the Newton solve as DIVERGED_LOCAL_MIN,
@@ -476,7 +494,6 @@ def test_geostatic_stress_is_in_equilibrium_with_gravity(comm, volumetric_strain
     assert abs(fo.pressure()) < 1e-8 * gamma
 
 
-@pytest.mark.slow
 def test_frictional_soil_c0_with_gravity_reaches_a_limit(comm):
     """Headline case: purely frictional soil (c = 0) under self weight; apex returns occur and the
     load-settlement curve flattens (N_gamma-type limit); Newton survives with step cutting."""

@@ -92,7 +92,6 @@ def test_nonassociated_c0_footing_between_davis_and_associated(comm):
     assert 0.75 < ratios[1] < ratios[0] < 0.97, ratios
 
 
-@pytest.mark.slow
 def test_bbar_underestimates_nonassociated_c0_footing_on_coarse_meshes(comm):
     """B-bar ("cell-average") on c = 0, psi = 0 soil with self weight (phi = 30 deg, one-diagonal
     triangles): on n = 2 N_gamma falls below the Davis estimate of the same mesh, and it rises with
@@ -417,6 +416,7 @@ def _steep_sand(friction: float, **model) -> dict:
             "model": {"accuracy": "fast", **model}}
 
 
+@pytest.mark.slow
 def test_newton_plateaus_let_a_steep_nonassociated_sand_indent(comm, tmp_mpi_path):
     """With mu = 0.8 Newton stalls on plateaus of 1e-6 to 1e-3 of the internal-force norm that no
     step cut lowers: cutting alone failed at s/d = 0.007; with the plateaus accepted the wheel

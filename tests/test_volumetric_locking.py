@@ -239,6 +239,7 @@ def test_bad_volumetric_strain_is_refused(comm):
         PlasticityProblem(msh, von_mises_from_tresca(E, NU, C), volumetric_strain="mean")
 
 
+@pytest.mark.slow
 def test_prandtl_3d_hexahedra_do_not_lock_with_cell_average_strain(comm):
     """The slab of hexahedra (n = 2): B-bar within 6 % of (2 + pi) c, from above with the linear
     projection and from below with the cell mean; the pointwise strain locks (measured +5.1 %,
