@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import gc
+import json
 import os
 import pathlib
 import shutil
@@ -36,9 +37,49 @@ def tmp_mpi_path(comm):
         shutil.rmtree(path, ignore_errors=True)
 
 
+#: seconds per test of the tests that took 5 s or more in one serial run (``--store-durations``)
+DURATIONS = pathlib.Path(__file__).with_name("durations.json")
+LONG_TEST_S = 5.0
+
+
+def pytest_addoption(parser):
+    parser.addoption("--store-durations", action="store_true",
+                     help=f"write the tests that take {LONG_TEST_S:g} s or more to {DURATIONS.name}")
+
+
 def pytest_collection_modifyitems(items):
-    """Slow tests first: the serial phase's workers then share them out before the short ones."""
-    items.sort(key=lambda item: item.get_closest_marker("slow") is None)   # a stable sort
+    """Longest tests first (measured in durations.json; a ``slow`` test not in it counts as a
+    minute), the others in file order: the serial pass's workers share the long tests out, and
+    neither ends on a queue of them while the other idles."""
+    known = json.loads(DURATIONS.read_text()) if DURATIONS.exists() else {}
+
+    def cost(item) -> float:
+        return known.get(item.nodeid, 60.0 if item.get_closest_marker("slow") else 0.0)
+
+    items.sort(key=lambda item: -cost(item))      # stable: equal costs keep their order
+
+
+_durations: dict[str, float] = {}
+
+
+_skipped: set[str] = set()
+
+
+def pytest_runtest_logreport(report):
+    _durations[report.nodeid] = _durations.get(report.nodeid, 0.0) + report.duration
+    if report.skipped:
+        _skipped.add(report.nodeid)
+
+
+def pytest_sessionfinish(session):
+    """With ``--store-durations`` in a serial run: the controller (not an xdist worker) updates the
+    file with the tests that ran (those under LONG_TEST_S leave it; skipped ones are not measured)."""
+    config = session.config
+    if config.getoption("store_durations") and not hasattr(config, "workerinput") and MPI.COMM_WORLD.size == 1:
+        known = json.loads(DURATIONS.read_text()) if DURATIONS.exists() else {}
+        known.update({k: round(v) for k, v in _durations.items() if k not in _skipped})
+        long = {k: v for k, v in sorted(known.items(), key=lambda kv: -kv[1]) if v >= LONG_TEST_S}
+        DURATIONS.write_text(json.dumps(long, indent=1) + "\n")
 
 
 def pytest_runtest_setup(item):
