@@ -47,16 +47,31 @@ def pytest_addoption(parser):
                      help=f"write the tests that take {LONG_TEST_S:g} s or more to {DURATIONS.name}")
 
 
-def pytest_collection_modifyitems(items):
-    """Longest tests first (measured in durations.json; a ``slow`` test not in it counts as a
-    minute), the others in file order: the serial pass's workers share the long tests out, and
-    neither ends on a queue of them while the other idles."""
+def pytest_collection_modifyitems(config, items):
+    """Share the long tests (measured in durations.json; a ``slow`` test not in it counts as a
+    minute) out among pytest-xdist's workers.  xdist 3.1 first hands each worker a block of
+    consecutive tests, a quarter of its share; the long tests are dealt to those blocks, longest
+    first to the least loaded, so no worker ends on a queue of them while another idles.  The
+    other tests keep their file order."""
+    workers = int(getattr(config, "workerinput", {}).get("workercount", 1))
     known = json.loads(DURATIONS.read_text()) if DURATIONS.exists() else {}
 
     def cost(item) -> float:
         return known.get(item.nodeid, 60.0 if item.get_closest_marker("slow") else 0.0)
 
-    items.sort(key=lambda item: -cost(item))      # stable: equal costs keep their order
+    long = sorted((item for item in items if cost(item) > 0), key=cost, reverse=True)
+    short = [item for item in items if cost(item) == 0]
+    block = max(len(items) // workers // 4, 2)
+    dealt = [[] for _ in range(workers)]
+    for item in long:
+        open_blocks = [k for k in range(workers) if len(dealt[k]) < block] or range(workers)
+        dealt[min(open_blocks, key=lambda k: sum(map(cost, dealt[k])))].append(item)
+    ordered = []
+    for k in range(workers):
+        fill = max(block - len(dealt[k]), 0) if k < workers - 1 else 0
+        ordered += dealt[k] + short[:fill]
+        short = short[fill:]
+    items[:] = ordered + short
 
 
 _durations: dict[str, float] = {}
