@@ -29,13 +29,15 @@ For each friction coefficient mu:
 Prints s_cl, s_cont and their difference (the agreement criterion is 5 %), Q_H of both,
 the friction effect on the steady sinkage (mu vs the first mu), wall times, steps and linear solves.
 ``--table`` prints the held Q_V of saved runs as a Markdown table without solving, each change
-against the row above with the same strain and elements per d (mesh convergence at a held sinkage).
+against the same strain's mesh twice as coarse along one axis (mesh convergence at a held sinkage),
+and, for each mesh held at two sinkages, the sinkage at which the steady Q_V(s) carries the load.
 """
 from __future__ import annotations
 
 import argparse
 import dataclasses
 import json
+import math
 import time
 
 import numpy as np
@@ -245,10 +247,9 @@ def parser() -> argparse.ArgumentParser:
     return p
 
 
-def hold_table(paths) -> str:
-    """Markdown table of the held runs in ``paths`` (JSON files of this script), sorted by strain,
-    elements per d and mesh; each change is against the previous row of the same strain and
-    elements per d."""
+def held_runs(paths) -> list:
+    """The held runs saved in ``paths`` (JSON files of this script) as (key, args, hold, mesh name),
+    sorted by key = (strain, elements per d, held sinkage, refinement across, along, in depth)."""
     rows = []
     for path in paths:
         with open(path) as f:
@@ -259,33 +260,80 @@ def hold_table(paths) -> str:
             if not h or "QV_hold" not in h:
                 continue
             shorter = [f"{a.get(k, 1.0):g}x {axis}" for k, axis in SHORTER.items() if a.get(k, 1.0) != 1.0]
-            rows.append(((a["volumetric_strain"], a["refinement"] or 0.0, a.get("cross_refinement", 1.0),
-                          a.get("path_refinement", 1.0), a.get("depth_refinement", 1.0)), a, h, ", ".join(shorter)))
-    rows.sort(key=lambda row: row[0])
+            rows.append(((a["volumetric_strain"], a["refinement"] or 0.0, h["s_hold"], a.get("cross_refinement", 1.0),
+                          a.get("path_refinement", 1.0), a.get("depth_refinement", 1.0)), a, h,
+                         ", ".join(shorter) or "isotropic"))
+    return sorted(rows, key=lambda row: row[0])
+
+
+def coarser_meshes(refinements: tuple) -> list:
+    """The refinements (across, along, in depth) twice as coarse along one axis, in that order."""
+    return [refinements[:i] + (refinements[i] / 2,) + refinements[i + 1:] for i in range(3) if refinements[i] >= 2]
+
+
+def _markdown(head, body) -> str:
+    return "\n".join(["| " + " | ".join(head) + " |", "|---" * len(head) + "|"]
+                     + ["| " + " | ".join(cells) + " |" for cells in body])
+
+
+def hold_table(rows) -> str:
+    """Markdown table of the held runs ``rows`` (of :func:`held_runs`); each change is against the run
+    of the same strain, elements per d and held sinkage whose refined strip is twice as coarse along
+    one axis (across, along the path, in depth: the first of these that was run), named in the
+    column "against"."""
     dofs = all("dofs" in h for _, _, h, _ in rows) and bool(rows)   # not kept by runs of earlier versions
     head = ["strain", "elements / d", "refined strip", "μ", "held sinkage"] + ["dofs"] * dofs + [
-        "Q_V (± std)", "change", "Q_H", "steps", "Newton its", "cuts", "wall time"]
-    lines = ["| " + " | ".join(head) + " |", "|---" * len(head) + "|"]
-    prev = {}
-    for key, a, h, shorter in rows:
+        "Q_V (± std)", "change", "against", "Q_H", "steps", "Newton its", "cuts", "wall time"]
+    held = {key: (h["QV_hold"], mesh) for key, _, h, mesh in rows}
+    body = []
+    for key, a, h, mesh in rows:
         q = h["QV_hold"]
-        group = key[:2]
-        change = f"{100 * (q / prev[group] - 1):+.1f} %" if group in prev else ""
-        prev[group] = q
-        cells = [a["volumetric_strain"], f"{a['refinement']:g}" if a["refinement"] else a["accuracy"],
-                 shorter or "isotropic", f"{h['mu']:g}", f"{1e3 * h['s_hold']:.2f} mm"] + [
-            str(h.get("dofs", ""))] * dofs + [
-            f"{q / 1e3:.1f} ± {h['QV_hold_std'] / 1e3:.1f} kN", change, f"{h['QH_hold'] / 1e3:.1f} kN",
-            str(h["steps"]), str(h["newton_iterations"]), str(h["cuts"]), f"{h['time_s']:.0f} s"]
-        lines.append("| " + " | ".join(cells) + " |")
-    return "\n".join(lines)
+        parent = next((held[key[:3] + c] for c in coarser_meshes(key[3:]) if key[:3] + c in held), None)
+        change, against = (f"{100 * (q / parent[0] - 1):+.1f} %", parent[1]) if parent else ("", "")
+        body.append([a["volumetric_strain"], f"{a['refinement']:g}" if a["refinement"] else a["accuracy"],
+                     mesh, f"{h['mu']:g}", f"{1e3 * h['s_hold']:.2f} mm"] + [str(h.get("dofs", ""))] * dofs + [
+            f"{q / 1e3:.1f} ± {h['QV_hold_std'] / 1e3:.1f} kN", change, against, f"{h['QH_hold'] / 1e3:.1f} kN",
+            str(h["steps"]), str(h["newton_iterations"]), str(h["cuts"]), f"{h['time_s']:.0f} s"])
+    return _markdown(head, body)
+
+
+def sinkage_at_load(rows) -> str:
+    """Markdown table of the steady sinkage that carries the load, for each mesh held at two or more
+    sinkages: the power law Q_V = Q_1 (s / s_1)^n through the two held points nearest the load,
+    solved for Q_V = load (the constant-load steady state, read off the steady force-sinkage curve).
+    Each change is against the same strain's mesh twice as coarse along one axis."""
+    meshes = {}
+    for key, a, h, mesh in rows:
+        meshes.setdefault((key[:2], key[3:]), (a, mesh, []))[2].append((h["s_hold"], h["QV_hold"]))
+    found = {}
+    body = []
+    for (group, refinements), (a, mesh, points) in sorted(meshes.items(), key=lambda item: item[0]):
+        if len(points) < 2:
+            continue
+        load = 1e3 * a["load"]
+        (s1, q1), (s2, q2) = sorted(points, key=lambda p: abs(math.log(p[1] / load)))[:2]
+        n = math.log(q2 / q1) / math.log(s2 / s1)
+        s = s1 * (load / q1) ** (1 / n)
+        found[(group, refinements)] = (s, mesh)
+        parent = next((found[(group, c)] for c in coarser_meshes(refinements) if (group, c) in found), None)
+        change, against = (f"{100 * (s / parent[0] - 1):+.1f} %", parent[1]) if parent else ("", "")
+        body.append([a["volumetric_strain"], f"{a['refinement']:g}" if a["refinement"] else a["accuracy"], mesh,
+                     " / ".join(f"{1e3 * p[0]:.2f}" for p in sorted(points)) + " mm", f"{n:.3f}",
+                     f"{a['load']:g} kN", f"{1e3 * s:.2f} mm", change, against])
+    head = ["strain", "elements / d", "refined strip", "held sinkages", "n = d ln Q_V / d ln s", "load",
+            "sinkage at the load", "change", "against"]
+    return _markdown(head, body) if body else ""
 
 
 def main(argv=None) -> int:
     p = parser()
     args = p.parse_args(argv)
     if args.table:
-        print(hold_table(args.table))
+        rows = held_runs(args.table)
+        print(hold_table(rows))
+        at_load = sinkage_at_load(rows)
+        if at_load:
+            print("\n" + at_load)
         return 0
     comm = MPI.COMM_WORLD
     setup_logging(comm, quiet=not args.progress)

@@ -337,18 +337,34 @@ def test_rolling_cells_runs_each_mesh_variant_once(monkeypatch, tmp_path, capsys
 @pytest.mark.serial
 def test_held_sinkage_table_compares_like_with_like(benchmarks, tmp_path, capsys):
     """The held-sinkage table sorts the runs by strain and mesh and gives each the change of Q_V
-    against the coarser mesh of the same strain and elements per d only."""
+    against the mesh of the same strain and elements per d that is twice as coarse along one axis."""
     convergence, _ = benchmarks
     protocols = convergence.protocols
     paths = []
-    for strain, across, q in (("pointwise", 4.0, 110e3), ("pointwise", 2.0, 100e3), ("cell-average", 2.0, 90e3)):
-        args = {"volumetric_strain": strain, "refinement": 6.0, "accuracy": "fast", "cross_refinement": across}
-        hold = {"mu": 0.0, "s_hold": 0.03, "QV_hold": q, "QV_hold_std": 1e3, "QH_hold": 1e4, "steps": 60,
+    for strain, across, depth, s_hold, q in (
+            ("pointwise", 4.0, 1.0, 0.03, 110e3), ("pointwise", 2.0, 1.0, 0.03, 100e3),
+            ("cell-average", 2.0, 1.0, 0.03, 90e3), ("pointwise", 2.0, 2.0, 0.03, 99e3),
+            ("pointwise", 8.0, 1.0, 0.03, 121e3), ("pointwise", 2.0, 1.0, 0.02, 80e3),
+            ("pointwise", 4.0, 1.0, 0.02, 88e3), ("pointwise", 4.0, 1.0, 0.01, 50e3)):
+        args = {"volumetric_strain": strain, "refinement": 6.0, "accuracy": "fast", "cross_refinement": across,
+                "depth_refinement": depth, "load": 105.0}
+        hold = {"mu": 0.0, "s_hold": s_hold, "QV_hold": q, "QV_hold_std": 1e3, "QH_hold": 1e4, "steps": 60,
                 "newton_iterations": 400, "cuts": 0, "time_s": 10.0}
-        paths.append(tmp_path / f"{strain}_{across:g}.json")
+        paths.append(tmp_path / f"{strain}_{across:g}_{depth:g}_{s_hold:g}.json")
         paths[-1].write_text(json.dumps({"args": args, "results": [{"hold": hold}, {"hold": None}]}))
     assert protocols.main(["--table"] + [str(p) for p in paths]) == 0
-    rows = [line for line in capsys.readouterr().out.splitlines() if line.startswith("| ")][1:]
-    assert [r.split(" | ")[2] for r in rows] == ["2x across the path"] * 2 + ["4x across the path"]
+    tables = capsys.readouterr().out.split("\n\n")
+    rows = [line for line in tables[0].splitlines() if line.startswith("| ") and "30.00 mm" in line]
+    assert [r.split(" | ")[2] for r in rows] == ["2x across the path"] * 2 + [
+        "2x across the path, 2x in depth", "4x across the path", "8x across the path"]
     assert rows[0].startswith("| cell-average") and "%" not in rows[0] and "%" not in rows[1]
-    assert "+10.0 %" in rows[2] and "dofs" not in rows[2]
+    assert "| -1.0 % | 2x across the path |" in rows[2] and "dofs" not in rows[2]
+    assert "| +10.0 % | 2x across the path |" in rows[3]
+    assert "| +10.0 % | 4x across the path |" in rows[4]
+    # the sinkage carrying 105 kN on the power law through the two held points nearest the load
+    n = math.log(100 / 80) / math.log(3 / 2)
+    coarse, fine = 30 * 1.05 ** (1 / n), 30 * (105 / 110) ** (1 / n)
+    at_load = [line for line in tables[1].splitlines() if line.startswith("| pointwise")]
+    assert len(at_load) == 2 and f"| {n:.3f} | 105 kN | {coarse:.2f} mm |  |  |" in at_load[0]
+    assert f"| {fine:.2f} mm | {100 * (fine / coarse - 1):+.1f} % | 2x across the path |" in at_load[1]
+    assert "10.00 / 20.00 / 30.00 mm" in at_load[1]
