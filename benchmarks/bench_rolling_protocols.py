@@ -51,7 +51,7 @@ from rollsim.log import setup_logging
 from rollsim.solver import DruckerPrager, SolverDivergedError, VonMises
 from rollsim.solver.drivers.rolling_constant_load import measure_rut
 from rollsim.solver.options import DEFAULT_RELAXATION_FALLBACK, DEFAULT_TRAVEL_RELAXATION_FALLBACK
-from rollsim.solver.rolling import STEADY_MIN_TRAVEL, WheelRolling
+from rollsim.solver.rolling import STEADY_MIN_TRAVEL, WheelRolling, constant_load_control
 from rollsim.solver.rundir import TravelProgress
 from rollsim.solver.stepping import StepControl
 
@@ -91,8 +91,7 @@ def travel_control(travel: float, step_mm: float) -> StepControl | None:
     solver's default (``WheelRolling.travel_step``)."""
     if not step_mm:
         return None
-    dx = 1e-3 * step_mm
-    return StepControl(t_end=travel, dt=dx, dt_min=1e-3 * dx, dt_max=dx, max_cuts=8, easy_iterations=10**6)
+    return constant_load_control(travel, 1e-3 * step_mm)
 
 
 def constant_load(comm, mu, args):
@@ -271,6 +270,13 @@ def coarser_meshes(refinements: tuple) -> list:
     return [refinements[:i] + (refinements[i] / 2,) + refinements[i + 1:] for i in range(3) if refinements[i] >= 2]
 
 
+def against_coarser(value: float, found: dict, group: tuple, refinements: tuple) -> tuple[str, str]:
+    """("change", "against") cells: ``value`` against ``found[group + c]`` = (value, mesh name) of the
+    first mesh ``c`` of :func:`coarser_meshes` that was run; empty cells when none was."""
+    parent = next((found[group + c] for c in coarser_meshes(refinements) if group + c in found), None)
+    return (f"{100 * (value / parent[0] - 1):+.1f} %", parent[1]) if parent else ("", "")
+
+
 def _markdown(head, body) -> str:
     return "\n".join(["| " + " | ".join(head) + " |", "|---" * len(head) + "|"]
                      + ["| " + " | ".join(cells) + " |" for cells in body])
@@ -288,8 +294,7 @@ def hold_table(rows) -> str:
     body = []
     for key, a, h, mesh in rows:
         q = h["QV_hold"]
-        parent = next((held[key[:3] + c] for c in coarser_meshes(key[3:]) if key[:3] + c in held), None)
-        change, against = (f"{100 * (q / parent[0] - 1):+.1f} %", parent[1]) if parent else ("", "")
+        change, against = against_coarser(q, held, key[:3], key[3:])
         body.append([a["volumetric_strain"], f"{a['refinement']:g}" if a["refinement"] else a["accuracy"],
                      mesh, f"{h['mu']:g}", f"{1e3 * h['s_hold']:.2f} mm"] + [str(h.get("dofs", ""))] * dofs + [
             f"{q / 1e3:.1f} ± {h['QV_hold_std'] / 1e3:.1f} kN", change, against, f"{h['QH_hold'] / 1e3:.1f} kN",
@@ -301,25 +306,31 @@ def sinkage_at_load(rows) -> str:
     """Markdown table of the steady sinkage that carries the load, for each mesh held at two or more
     sinkages: the power law Q_V = Q_1 (s / s_1)^n through the two held points nearest the load,
     solved for Q_V = load (the constant-load steady state, read off the steady force-sinkage curve).
-    Each change is against the same strain's mesh twice as coarse along one axis."""
+    Each change is against the same strain's mesh twice as coarse along one axis. Runs repeated at
+    one sinkage count once (the last read); a mesh whose force does not grow with sinkage between
+    the two points is reported as such, without a sinkage."""
     meshes = {}
     for key, a, h, mesh in rows:
-        meshes.setdefault((key[:2], key[3:]), (a, mesh, []))[2].append((h["s_hold"], h["QV_hold"]))
+        meshes.setdefault((key[:2], key[3:]), (a, mesh, {}))[2][h["s_hold"]] = h["QV_hold"]
     found = {}
     body = []
-    for (group, refinements), (a, mesh, points) in sorted(meshes.items(), key=lambda item: item[0]):
+    for (group, refinements), (a, mesh, by_sinkage) in sorted(meshes.items(), key=lambda item: item[0]):
+        points = sorted(by_sinkage.items())
         if len(points) < 2:
             continue
         load = 1e3 * a["load"]
         (s1, q1), (s2, q2) = sorted(points, key=lambda p: abs(math.log(p[1] / load)))[:2]
         n = math.log(q2 / q1) / math.log(s2 / s1)
-        s = s1 * (load / q1) ** (1 / n)
-        found[(group, refinements)] = (s, mesh)
-        parent = next((found[(group, c)] for c in coarser_meshes(refinements) if (group, c) in found), None)
-        change, against = (f"{100 * (s / parent[0] - 1):+.1f} %", parent[1]) if parent else ("", "")
+        if n > 0:
+            s = s1 * (load / q1) ** (1 / n)
+            found[group + refinements] = (s, mesh)
+            sinkage = f"{1e3 * s:.2f} mm"
+            change, against = against_coarser(s, found, group, refinements)
+        else:
+            sinkage, change, against = "not read: Q_V does not grow with s", "", ""
         body.append([a["volumetric_strain"], f"{a['refinement']:g}" if a["refinement"] else a["accuracy"], mesh,
-                     " / ".join(f"{1e3 * p[0]:.2f}" for p in sorted(points)) + " mm", f"{n:.3f}",
-                     f"{a['load']:g} kN", f"{1e3 * s:.2f} mm", change, against])
+                     " / ".join(f"{1e3 * p[0]:.2f}" for p in points) + " mm", f"{n:.3f}",
+                     f"{a['load']:g} kN", sinkage, change, against])
     head = ["strain", "elements / d", "refined strip", "held sinkages", "n = d ln Q_V / d ln s", "load",
             "sinkage at the load", "change", "against"]
     return _markdown(head, body) if body else ""

@@ -47,7 +47,7 @@ from .stepping import (RelaxationFallback, SolverDivergedError, StepControl, adv
                        straight_path)
 
 __all__ = ["WheelRolling", "RollingStep", "with_stiff_zone", "SteadyState", "detect_steady_state",
-           "surface_profile", "DEFAULT_ROLL_CONTROL", "STEADY_MIN_TRAVEL"]
+           "surface_profile", "DEFAULT_ROLL_CONTROL", "STEADY_MIN_TRAVEL", "constant_load_control"]
 
 log = get_logger("solver")
 
@@ -60,6 +60,12 @@ DEFAULT_ROLL_CONTROL = dict(dt=0.25, dt_min=1e-3, dt_max=0.5, easy_iterations=8,
 #: 0.3-0.6 d past the zone's end and the sinkage had settled by 0.7-0.95 d (docs, "Do the two
 #: protocols agree?" and the Mn/DOT run)
 STEADY_MIN_TRAVEL = 0.75
+
+
+def constant_load_control(travel: float, dx: float) -> StepControl:
+    """Constant-load stepping over ``travel`` (m) in steps of ``dx`` (m), back to the full step
+    after a cut (no growth beyond it)."""
+    return StepControl(t_end=travel, dt=dx, dt_min=4e-3 * dx, dt_max=dx, max_cuts=8, easy_iterations=10**6)
 
 
 @dataclass
@@ -587,10 +593,7 @@ class WheelRolling:
             if on_start_over is not None:
                 on_start_over(dropped)
 
-        if control is None:                 # back to the full step after cuts
-            dx = self.travel_step
-            control = StepControl(t_end=travel, dt=dx, dt_min=4e-3 * dx, dt_max=dx, max_cuts=8,
-                                  easy_iterations=10**6)
+        control = control or constant_load_control(travel, self.travel_step)
         try:
             self.roll(travel, self.sinkage, on_step=monitor, control=control, on_start_over=started_over)
         except _StopRolling:

@@ -368,3 +368,25 @@ def test_held_sinkage_table_compares_like_with_like(benchmarks, tmp_path, capsys
     assert len(at_load) == 2 and f"| {n:.3f} | 105 kN | {coarse:.2f} mm |  |  |" in at_load[0]
     assert f"| {fine:.2f} mm | {100 * (fine / coarse - 1):+.1f} % | 2x across the path |" in at_load[1]
     assert "10.00 / 20.00 / 30.00 mm" in at_load[1]
+
+
+@pytest.mark.serial
+def test_sinkage_at_load_skips_repeats_and_flat_curves(benchmarks, tmp_path, capsys):
+    """A mesh held twice at one sinkage has a single point (no row); a mesh whose force falls with
+    sinkage gets a row that says so instead of a sinkage."""
+    protocols = benchmarks[0].protocols
+    paths = []
+    for k, (across, s_hold, q) in enumerate(((2.0, 0.03, 90e3), (2.0, 0.03, 91e3), (4.0, 0.02, 95e3),
+                                             (4.0, 0.03, 94e3))):
+        args = {"volumetric_strain": "cell-average", "refinement": 6.0, "accuracy": "fast",
+                "cross_refinement": across, "load": 100.0}
+        hold = {"mu": 0.0, "s_hold": s_hold, "QV_hold": q, "QV_hold_std": 1e3, "QH_hold": 1e4, "steps": 60,
+                "newton_iterations": 400, "cuts": 0, "time_s": 10.0}
+        paths.append(tmp_path / f"run{k}.json")
+        paths[-1].write_text(json.dumps({"args": args, "results": [{"hold": hold}]}))
+    assert protocols.main(["--table"] + [str(p) for p in paths]) == 0
+    tables = capsys.readouterr().out.split("\n\n")
+    assert len(tables) == 2
+    at_load = [line for line in tables[1].splitlines() if line.startswith("| cell-average")]
+    assert len(at_load) == 1 and "4x across the path" in at_load[0]
+    assert "not read: Q_V does not grow with s" in at_load[0] and "20.00 / 30.00 mm" in at_load[0]
