@@ -164,7 +164,8 @@ def continuous(comm, mu, args, s_hold=None):
     s_end = args.s_end * D if s_hold is None else s_hold
     try:
         roll.press(args.s0 * D)
-        roll.roll(args.travel * D, s_end, ramp=args.ramp * D if args.ramp else None)
+        roll.roll(args.travel * D, s_end, ramp=args.ramp * D if args.ramp else None,
+                  dx=1e-3 * args.roll_step if args.roll_step else None)
     except SolverDivergedError as err:
         out["status"] = f"failed: {err}"
     rolled = [st for st in roll.steps if st.travel > 0]
@@ -218,6 +219,8 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--cl-travel", type=float, default=1.3, help="constant-load travel limit, d")
     p.add_argument("--travel-step", type=float, default=0.0,
                    help="constant-load travel step, mm (0: the solver's default, WheelRolling.travel_step)")
+    p.add_argument("--roll-step", type=float, default=0.0,
+                   help="continuous travel step, mm (0: the solver's default, WheelRolling.travel_step)")
     p.add_argument("--steady-rtol", type=float, default=0.02)
     p.add_argument("--steady-min-travel", type=float, default=STEADY_MIN_TRAVEL,
                    help="constant load: look for steady state after this travel (d) on the test soil")
@@ -248,7 +251,8 @@ def parser() -> argparse.ArgumentParser:
 
 def held_runs(paths) -> list:
     """The held runs saved in ``paths`` (JSON files of this script) as (key, args, hold, mesh name),
-    sorted by key = (strain, elements per d, held sinkage, refinement across, along, in depth)."""
+    sorted by key = (strain, elements per d, held sinkage, refinement across, along, in depth,
+    travel step in mm (0: the solver's default))."""
     rows = []
     for path in paths:
         with open(path) as f:
@@ -258,16 +262,22 @@ def held_runs(paths) -> list:
             h = r.get("hold")
             if not h or "QV_hold" not in h:
                 continue
+            step = a.get("roll_step", 0.0)
             shorter = [f"{a.get(k, 1.0):g}x {axis}" for k, axis in SHORTER.items() if a.get(k, 1.0) != 1.0]
+            mesh = ", ".join(shorter) or "isotropic"
             rows.append(((a["volumetric_strain"], a["refinement"] or 0.0, h["s_hold"], a.get("cross_refinement", 1.0),
-                          a.get("path_refinement", 1.0), a.get("depth_refinement", 1.0)), a, h,
-                         ", ".join(shorter) or "isotropic"))
+                          a.get("path_refinement", 1.0), a.get("depth_refinement", 1.0), step), a, h,
+                         mesh + (f", {step:g} mm steps" if step else "")))
     return sorted(rows, key=lambda row: row[0])
 
 
 def coarser_meshes(refinements: tuple) -> list:
-    """The refinements (across, along, in depth) twice as coarse along one axis, in that order."""
-    return [refinements[:i] + (refinements[i] / 2,) + refinements[i + 1:] for i in range(3) if refinements[i] >= 2]
+    """The discretisations (refinement across, along, in depth, travel step) coarser than
+    ``refinements``: for a run at a set travel step the same mesh at the solver's default step,
+    then the meshes twice as coarse along one axis at the same step, in that order."""
+    default_step = [refinements[:3] + (0.0,)] if refinements[3] else []
+    return default_step + [refinements[:i] + (refinements[i] / 2,) + refinements[i + 1:]
+                           for i in range(3) if refinements[i] >= 2]
 
 
 def against_coarser(value: float, found: dict, group: tuple, refinements: tuple) -> tuple[str, str]:
@@ -284,9 +294,8 @@ def _markdown(head, body) -> str:
 
 def hold_table(rows) -> str:
     """Markdown table of the held runs ``rows`` (of :func:`held_runs`); each change is against the run
-    of the same strain, elements per d and held sinkage whose refined strip is twice as coarse along
-    one axis (across, along the path, in depth: the first of these that was run), named in the
-    column "against"."""
+    of the same strain, elements per d and held sinkage on the first of :func:`coarser_meshes` that
+    was run, named in the column "against"."""
     dofs = all("dofs" in h for _, _, h, _ in rows) and bool(rows)   # not kept by runs of earlier versions
     head = ["strain", "elements / d", "refined strip", "μ", "held sinkage"] + ["dofs"] * dofs + [
         "Q_V (± std)", "change", "against", "Q_H", "steps", "Newton its", "cuts", "wall time"]
@@ -306,7 +315,7 @@ def sinkage_at_load(rows) -> str:
     """Markdown table of the steady sinkage that carries the load, for each mesh held at two or more
     sinkages: the power law Q_V = Q_1 (s / s_1)^n through the two held points nearest the load,
     solved for Q_V = load (the constant-load steady state, read off the steady force-sinkage curve).
-    Each change is against the same strain's mesh twice as coarse along one axis. Runs repeated at
+    Each change is against the same strain's first of :func:`coarser_meshes`. Runs repeated at
     one sinkage count once (the last read); a mesh whose force does not grow with sinkage between
     the two points is reported as such, without a sinkage."""
     meshes = {}
@@ -349,6 +358,9 @@ def main(argv=None) -> int:
     comm = MPI.COMM_WORLD
     setup_logging(comm, quiet=not args.progress)
     results = []
+    for name in ("travel_step", "roll_step"):
+        if getattr(args, name) < 0:
+            p.error(f"--{name.replace('_', '-')}: must be >= 0 mm, got {getattr(args, name):g}")
     if args.hold_sinkage and len(args.hold_sinkage) != len(args.mu):
         p.error("--hold-sinkage: give one sinkage per --mu value")
     for i, mu in enumerate(args.mu):

@@ -426,9 +426,9 @@ class WheelRolling:
              on_start_over: Callable[[int], None] | None = None) -> list[RollingStep]:
         """Translate the wheel by ``travel`` (m) in +x, its sinkage ramped linearly from the current
         value to ``s_target`` over the first ``ramp`` metres of travel (default: all of it), then
-        held.  ``dx``: first travel step (default :attr:`travel_step`; on tetrahedra it grows to
-        twice that after easy steps, on hexahedra it stays, so that the element-passing ripple is
-        sampled about five times per element; cut on divergence).  After a failure the roll
+        held.  ``dx``: travel step, m (default :attr:`travel_step`, which samples the
+        element-passing ripple about five times per element; on tetrahedra it grows to twice
+        ``dx`` after easy steps, on hexahedra it stays; cut on divergence and grown back).  After a failure the roll
         starts over relaxed (see ``travel_relaxation_fallback``): the steps it rolled are dropped,
         and ``on_start_over(n)`` is told how many.  Returns all steps; ``SolverDivergedError`` (state at the last converged
         step) on failure."""
@@ -438,13 +438,12 @@ class WheelRolling:
         if not ramp > 0:
             raise ValueError(f"ramp must be > 0, got {ramp}")
         if control is None:
-            h = 4.0 * self.travel_step        # the contact element's diameter on tetrahedra
             c = dict(DEFAULT_ROLL_CONTROL)
+            h = (self.travel_step if dx is None else dx) / c["dt"]   # the contact element's diameter on tetrahedra
+            if not h > 0:
+                raise ValueError(f"dx must be > 0, got {dx}")
             if self.hexahedral:
                 c["dt_max"] = c["dt"]
-            if dx is not None:
-                c["dt"] = dx / h
-                c["dt_max"] = max(c["dt_max"], c["dt"])
             control = StepControl(t_end=travel, **{k: (v * h if k.startswith("dt") else v) for k, v in c.items()})
         x0, s0 = self.position, self.sinkage
 

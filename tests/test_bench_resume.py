@@ -334,33 +334,39 @@ def test_rolling_cells_runs_each_mesh_variant_once(monkeypatch, tmp_path, capsys
     assert f"| {second} | pointwise | 10 | 100 | 5 | 20 | 0 | 20.00 ± 1.00 mm | not detected | 300 s (1) | 1.50 |" in text
 
 
+def _held_run(path, strain: str, across: float, s_hold: float, q: float, depth: float = 1.0,
+              roll_step: float = 0.0, *, load: float):
+    """Write a held run of ``bench_rolling_protocols`` to ``path``: Q_V = ``q`` (N) held at ``s_hold`` (m)
+    on the 6-per-d mesh refined ``across`` and in ``depth``, travel step ``roll_step`` (mm, 0: default), the load ``load`` (kN)."""
+    args = {"volumetric_strain": strain, "refinement": 6.0, "accuracy": "fast", "cross_refinement": across,
+            "depth_refinement": depth, "roll_step": roll_step, "load": load}
+    hold = {"mu": 0.0, "s_hold": s_hold, "QV_hold": q, "QV_hold_std": 1e3, "QH_hold": 1e4, "steps": 60,
+            "newton_iterations": 400, "cuts": 0, "time_s": 10.0}
+    path.write_text(json.dumps({"args": args, "results": [{"hold": hold}, {"hold": None}]}))
+    return path
+
+
 @pytest.mark.serial
 def test_held_sinkage_table_compares_like_with_like(benchmarks, tmp_path, capsys):
     """The held-sinkage table sorts the runs by strain and mesh and gives each the change of Q_V
-    against the mesh of the same strain and elements per d that is twice as coarse along one axis."""
-    convergence, _ = benchmarks
-    protocols = convergence.protocols
-    paths = []
-    for strain, across, depth, s_hold, q in (
-            ("pointwise", 4.0, 1.0, 0.03, 110e3), ("pointwise", 2.0, 1.0, 0.03, 100e3),
-            ("cell-average", 2.0, 1.0, 0.03, 90e3), ("pointwise", 2.0, 2.0, 0.03, 99e3),
-            ("pointwise", 8.0, 1.0, 0.03, 121e3), ("pointwise", 2.0, 1.0, 0.02, 80e3),
-            ("pointwise", 4.0, 1.0, 0.02, 88e3), ("pointwise", 4.0, 1.0, 0.01, 50e3)):
-        args = {"volumetric_strain": strain, "refinement": 6.0, "accuracy": "fast", "cross_refinement": across,
-                "depth_refinement": depth, "load": 105.0}
-        hold = {"mu": 0.0, "s_hold": s_hold, "QV_hold": q, "QV_hold_std": 1e3, "QH_hold": 1e4, "steps": 60,
-                "newton_iterations": 400, "cuts": 0, "time_s": 10.0}
-        paths.append(tmp_path / f"{strain}_{across:g}_{depth:g}_{s_hold:g}.json")
-        paths[-1].write_text(json.dumps({"args": args, "results": [{"hold": hold}, {"hold": None}]}))
+    against the mesh of the same strain and elements per d that is twice as coarse along one axis,
+    and a run at a set travel step the change against the same mesh at the default step."""
+    protocols = benchmarks[0].protocols
+    paths = [_held_run(tmp_path / f"run{k}.json", *run, load=105.0) for k, run in enumerate((
+        ("pointwise", 4.0, 0.03, 110e3), ("pointwise", 2.0, 0.03, 100e3), ("cell-average", 2.0, 0.03, 90e3),
+        ("pointwise", 2.0, 0.03, 99e3, 2.0), ("pointwise", 8.0, 0.03, 121e3), ("pointwise", 2.0, 0.02, 80e3),
+        ("pointwise", 4.0, 0.02, 88e3), ("pointwise", 4.0, 0.01, 50e3), ("pointwise", 2.0, 0.03, 104e3, 2.0, 25.4)))]
     assert protocols.main(["--table"] + [str(p) for p in paths]) == 0
     tables = capsys.readouterr().out.split("\n\n")
     rows = [line for line in tables[0].splitlines() if line.startswith("| ") and "30.00 mm" in line]
     assert [r.split(" | ")[2] for r in rows] == ["2x across the path"] * 2 + [
-        "2x across the path, 2x in depth", "4x across the path", "8x across the path"]
+        "2x across the path, 2x in depth", "2x across the path, 2x in depth, 25.4 mm steps",
+        "4x across the path", "8x across the path"]
     assert rows[0].startswith("| cell-average") and "%" not in rows[0] and "%" not in rows[1]
     assert "| -1.0 % | 2x across the path |" in rows[2] and "dofs" not in rows[2]
-    assert "| +10.0 % | 2x across the path |" in rows[3]
-    assert "| +10.0 % | 4x across the path |" in rows[4]
+    assert "| +5.1 % | 2x across the path, 2x in depth |" in rows[3]
+    assert "| +10.0 % | 2x across the path |" in rows[4]
+    assert "| +10.0 % | 4x across the path |" in rows[5]
     # the sinkage carrying 105 kN on the power law through the two held points nearest the load
     n = math.log(100 / 80) / math.log(3 / 2)
     coarse, fine = 30 * 1.05 ** (1 / n), 30 * (105 / 110) ** (1 / n)
@@ -375,15 +381,9 @@ def test_sinkage_at_load_skips_repeats_and_flat_curves(benchmarks, tmp_path, cap
     """A mesh held twice at one sinkage has a single point (no row); a mesh whose force falls with
     sinkage gets a row that says so instead of a sinkage."""
     protocols = benchmarks[0].protocols
-    paths = []
-    for k, (across, s_hold, q) in enumerate(((2.0, 0.03, 90e3), (2.0, 0.03, 91e3), (4.0, 0.02, 95e3),
-                                             (4.0, 0.03, 94e3))):
-        args = {"volumetric_strain": "cell-average", "refinement": 6.0, "accuracy": "fast",
-                "cross_refinement": across, "load": 100.0}
-        hold = {"mu": 0.0, "s_hold": s_hold, "QV_hold": q, "QV_hold_std": 1e3, "QH_hold": 1e4, "steps": 60,
-                "newton_iterations": 400, "cuts": 0, "time_s": 10.0}
-        paths.append(tmp_path / f"run{k}.json")
-        paths[-1].write_text(json.dumps({"args": args, "results": [{"hold": hold}]}))
+    paths = [_held_run(tmp_path / f"run{k}.json", "cell-average", across, s_hold, q, load=100.0)
+             for k, (across, s_hold, q) in enumerate(((2.0, 0.03, 90e3), (2.0, 0.03, 91e3), (4.0, 0.02, 95e3),
+                                                      (4.0, 0.03, 94e3)))]
     assert protocols.main(["--table"] + [str(p) for p in paths]) == 0
     tables = capsys.readouterr().out.split("\n\n")
     assert len(tables) == 2

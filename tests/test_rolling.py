@@ -123,7 +123,7 @@ def test_travel_step_is_a_fifth_of_a_hexahedron_along_the_travel(comm, monkeypat
     """Rolling steps by about a fifth of the contact element's length along the travel: a quarter
     of the diameter on tetrahedra, a fifth of the length along the travel on hexahedra (not a
     quarter of their space diagonal).  roll_at_load steps by it; the continuous roll starts with
-    it and grows to twice it on tetrahedra only."""
+    it and grows to twice it on tetrahedra only; a step ``dx`` set for the roll takes its place."""
     from rollsim.solver.scene_model import rolling_mesh
     wheel = CylinderWheel(D, B, B / 12)
     tets = WheelRolling(_tiny(comm), wheel, CLAY)
@@ -149,10 +149,15 @@ def test_travel_step_is_a_fifth_of_a_hexahedron_along_the_travel(comm, monkeypat
 
     for roll, grow in ((tets, 2.0), (hexes, 1.0)):
         monkeypatch.setattr(roll, "_run", capture_run)
-        with pytest.raises(RuntimeError, match="stop"):
-            roll.roll(0.1 * D, 0.0)
-        assert controls[-1].dt == pytest.approx(roll.travel_step)
-        assert controls[-1].dt_max == pytest.approx(grow * roll.travel_step)
+        for dx in (None, 0.5 * roll.travel_step):
+            with pytest.raises(RuntimeError, match="stop"):
+                roll.roll(0.1 * D, 0.0, dx=dx)
+            step = roll.travel_step if dx is None else dx
+            assert controls[-1].dt == pytest.approx(step)
+            assert controls[-1].dt_max == pytest.approx(grow * step)
+            assert controls[-1].dt_min == pytest.approx(4e-3 * step)
+        with pytest.raises(ValueError, match="dx must be > 0"):
+            roll.roll(0.1 * D, 0.0, dx=-0.01)
 
 
 @pytest.mark.parametrize("cell_type", ["tetrahedra", "hexahedra"])
