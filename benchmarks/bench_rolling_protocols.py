@@ -273,11 +273,14 @@ def held_runs(paths) -> list:
 
 def coarser_meshes(refinements: tuple) -> list:
     """The discretisations (refinement across, along, in depth, travel step) coarser than
-    ``refinements``: for a run at a set travel step the same mesh at the solver's default step,
-    then the meshes twice as coarse along one axis at the same step, in that order."""
-    default_step = [refinements[:3] + (0.0,)] if refinements[3] else []
-    return default_step + [refinements[:i] + (refinements[i] / 2,) + refinements[i + 1:]
-                           for i in range(3) if refinements[i] >= 2]
+    ``refinements``: for a run at a set travel step the same mesh at the solver's default step;
+    then the meshes twice as coarse along one axis at the same step, and for a set step after
+    them the same coarser meshes at the default step, in that order."""
+    mesh, step = refinements[:3], refinements[3]
+    coarser = [mesh[:i] + (mesh[i] / 2,) + mesh[i + 1:] for i in range(3) if mesh[i] >= 2]
+    if not step:
+        return [c + (0.0,) for c in coarser]
+    return [mesh + (0.0,)] + [c + (step,) for c in coarser] + [c + (0.0,) for c in coarser]
 
 
 def against_coarser(value: float, found: dict, group: tuple, refinements: tuple) -> tuple[str, str]:

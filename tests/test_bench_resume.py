@@ -377,6 +377,24 @@ def test_held_sinkage_table_compares_like_with_like(benchmarks, tmp_path, capsys
 
 
 @pytest.mark.serial
+def test_held_run_at_a_set_step_falls_back_to_the_default_step(benchmarks, tmp_path, capsys):
+    """A run at a set travel step whose mesh was run neither at the default step nor coarser at the
+    same step is compared with the coarser mesh at the default step, in both tables."""
+    protocols = benchmarks[0].protocols
+    paths = [_held_run(tmp_path / f"run{k}.json", "cell-average", 2.0, s_hold, q, *refined, load=100.0)
+             for k, (s_hold, q, *refined) in enumerate(((0.02, 90e3), (0.03, 110e3), (0.02, 99e3, 2.0, 25.4),
+                                                       (0.03, 121e3, 2.0, 25.4), (0.03, 120e3, 2.0)))]
+    assert protocols.main(["--table"] + [str(p) for p in paths]) == 0
+    held, at_load = capsys.readouterr().out.split("\n\n")
+    stepped = [line for line in held.splitlines() if "25.4 mm steps" in line]
+    assert "| 20.00 mm |" in stepped[0] and "| +10.0 % | 2x across the path |" in stepped[0]
+    assert "| 30.00 mm |" in stepped[1] and "| +0.8 % | 2x across the path, 2x in depth |" in stepped[1]
+    rows = [line for line in at_load.splitlines() if line.startswith("| cell-average")]
+    assert len(rows) == 2 and "25.4 mm steps" in rows[1] and rows[1].endswith("| 2x across the path |")
+    assert "%" not in rows[0] and "%" in rows[1].split(" | ")[-2]
+
+
+@pytest.mark.serial
 def test_sinkage_at_load_skips_repeats_and_flat_curves(benchmarks, tmp_path, capsys):
     """A mesh held twice at one sinkage has a single point (no row); a mesh whose force falls with
     sinkage gets a row that says so instead of a sinkage."""
