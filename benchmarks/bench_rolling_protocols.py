@@ -164,8 +164,9 @@ def continuous(comm, mu, args, s_hold=None):
     s_end = args.s_end * D if s_hold is None else s_hold
     try:
         roll.press(args.s0 * D)
+        progress = TravelProgress(args.travel * D, D, enabled=args.progress and comm.rank == 0)
         roll.roll(args.travel * D, s_end, ramp=args.ramp * D if args.ramp else None,
-                  dx=1e-3 * args.roll_step if args.roll_step else None)
+                  dx=1e-3 * args.roll_step if args.roll_step else None, on_step=progress.update)
     except SolverDivergedError as err:
         out["status"] = f"failed: {err}"
     rolled = [st for st in roll.steps if st.travel > 0]
@@ -241,7 +242,7 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--fallbacks", action="store_true",
                    help="relax a failed step as a plain rollsim run scene does (default: fail)")
     p.add_argument("--progress", action="store_true",
-                   help="constant load: one line per rolled step on stderr (travel, sinkage, forces, time left)")
+                   help="one line per rolled step on stderr (travel, sinkage, forces, time left)")
     p.add_argument("--skip-continuous", action="store_true")
     p.add_argument("--skip-constant-load", action="store_true")
     p.add_argument("--out")

@@ -3,11 +3,14 @@ not solved again, and their tables compare like with like (no solving here)."""
 from __future__ import annotations
 
 import json
+import logging
 import math
 import pathlib
 
 import numpy as np
 import pytest
+
+from rollsim.solver.rolling import RollingStep
 
 BENCHMARKS = pathlib.Path(__file__).parents[1] / "benchmarks"
 
@@ -408,3 +411,33 @@ def test_sinkage_at_load_skips_repeats_and_flat_curves(benchmarks, tmp_path, cap
     at_load = [line for line in tables[1].splitlines() if line.startswith("| cell-average")]
     assert len(at_load) == 1 and "4x across the path" in at_load[0]
     assert "not read: Q_V does not grow with s" in at_load[0] and "20.00 / 30.00 mm" in at_load[0]
+
+
+@pytest.mark.serial
+@pytest.mark.parametrize("progress", [True, False])
+def test_held_run_logs_a_line_per_step_with_progress(benchmarks, monkeypatch, caplog, progress):
+    """``--progress`` logs a line per rolled step of the continuous and held runs; without it they are quiet."""
+    protocols = benchmarks[0].protocols
+
+    class Rolling:
+        steps, newton_iterations, cuts, n_dofs = [], 0, 0, 10
+
+        def __init__(self, *args, **kwargs):
+            pass
+
+        def gravity_step(self):
+            pass
+
+        def press(self, sinkage):
+            pass
+
+        def roll(self, travel, s_target, ramp=None, dx=None, on_step=None):
+            on_step(RollingStep(1, 0.5 * travel, s_target, 9e4, 1e4, 0.0, 0.0, 0.0, 0.1, 0.0, 3, 3, 0, 0, 1.0))
+
+    monkeypatch.setattr(protocols, "WheelRolling", Rolling)
+    monkeypatch.setattr(protocols, "_block", lambda *args, **kwargs: None)
+    args = protocols.parser().parse_args(["--mu", "0"] + ["--progress"] * progress)
+    monkeypatch.setattr(logging.getLogger("rollsim"), "propagate", True)   # a CLI run before may have cut it
+    caplog.set_level("INFO", logger="rollsim")
+    protocols.continuous(protocols.MPI.COMM_WORLD, 0.0, args, s_hold=0.03)
+    assert ("50%" in caplog.text and "Q_V = 90.00 kN" in caplog.text) == progress
