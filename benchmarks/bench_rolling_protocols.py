@@ -26,6 +26,10 @@ For each friction coefficient mu:
     mpirun -n 2 python benchmarks/bench_rolling_protocols.py --mu 0 --length 2.6 --cl-travel 1.5 \
         --skip-continuous --hold --s0 0.002 --ramp 1.0 --travel 2.0 --cont-length 3.2
 
+``--checkpoint DIR`` writes the state of the continuous and held runs every ``--checkpoint-every``
+steps; started again with the same arguments (on any number of ranks) a killed run continues from
+its last checkpoint, and with other arguments it stops (exit 2) naming them.
+
 Prints s_cl, s_cont and their difference (the agreement criterion is 5 %), Q_H of both,
 the friction effect on the steady sinkage (mu vs the first mu), wall times, steps and linear solves.
 ``--table`` prints the held Q_V of saved runs as a Markdown table without solving, each change
@@ -38,6 +42,8 @@ import argparse
 import dataclasses
 import json
 import math
+import pathlib
+import sys
 import time
 
 import numpy as np
@@ -45,6 +51,7 @@ from mpi4py import MPI
 
 from _bench import add_volumetric_strain, dump_json
 
+from rollsim.files import atomic_write_text
 from rollsim.geometry import CylinderWheel, MeshOptions, build_soil_block, rolling_block
 from rollsim.geometry.mesh import ANISOTROPIC_REFINEMENTS
 from rollsim.log import setup_logging
@@ -162,11 +169,26 @@ def continuous(comm, mu, args, s_hold=None):
     roll.gravity_step()
     out = {"mu": mu, "status": "ok", "s_hold": s_hold, "dofs": roll.n_dofs}
     s_end = args.s_end * D if s_hold is None else s_hold
+    ckpt = None
+    if args.checkpoint:
+        ckpt = pathlib.Path(args.checkpoint) / f"{'continuous' if s_hold is None else 'hold'}_mu{mu:g}"
+    its_before = time_before = 0.0
+    if ckpt is not None and (ckpt / "rolling.json").exists():
+        its_before = resume(roll, ckpt, args) - roll.newton_iterations    # the gravity step counted once
+        time_before = sum(st.time for st in roll.steps)
+    progress = TravelProgress(args.travel * D, D, enabled=args.progress and comm.rank == 0)
+
+    def on_step(st):
+        progress.update(st)
+        if ckpt is not None and st.travel > 0 and len(roll.steps) % args.checkpoint_every == 0:
+            write_checkpoint(roll, ckpt, args)
+
     try:
         roll.press(args.s0 * D)
-        progress = TravelProgress(args.travel * D, D, enabled=args.progress and comm.rank == 0)
-        roll.roll(args.travel * D, s_end, ramp=args.ramp * D if args.ramp else None,
-                  dx=1e-3 * args.roll_step if args.roll_step else None, on_step=progress.update)
+        done, ramp = roll.position - roll.x_start, (args.ramp or args.travel) * D
+        if args.travel * D - done > 1e-9 * D:     # the rest of the roll and of its ramp
+            roll.roll(args.travel * D - done, s_end, ramp=ramp - done if ramp > done + 1e-9 * D else None,
+                      dx=1e-3 * args.roll_step if args.roll_step else None, on_step=on_step)
     except SolverDivergedError as err:
         out["status"] = f"failed: {err}"
     rolled = [st for st in roll.steps if st.travel > 0]
@@ -192,10 +214,42 @@ def continuous(comm, mu, args, s_hold=None):
         out.update(s_cont=float(s[i - 1] + w * (s[i] - s[i - 1])), QH_cont=float(qh[i - 1] + w * (qh[i] - qh[i - 1])))
     else:
         out["s_cont"] = None
-    out.update(steps=len(roll.steps), newton_iterations=roll.newton_iterations, cuts=roll.cuts,
-               time_s=comm.allreduce(time.perf_counter() - t0, op=MPI.MAX),
+    out.update(steps=len(roll.steps), newton_iterations=roll.newton_iterations + int(its_before), cuts=roll.cuts,
+               time_s=comm.allreduce(time.perf_counter() - t0, op=MPI.MAX) + time_before,
                curve=[(st.travel, st.sinkage, st.QV, st.QH) for st in roll.steps])
     return out
+
+
+#: arguments that do not change a continuous or held run's path (a checkpoint written with other
+#: values of them is continued)
+_NOT_THE_PATH = ("out", "progress", "checkpoint", "checkpoint_every", "table", "skip_continuous",
+                 "skip_constant_load")
+
+
+def write_checkpoint(roll: WheelRolling, ckpt: pathlib.Path, args) -> None:
+    """The roll's state in ``ckpt``, with the arguments that set its path (``args.json``)."""
+    if roll.comm.rank == 0:
+        ckpt.mkdir(parents=True, exist_ok=True)
+        atomic_write_text(ckpt / "args.json", json.dumps({k: v for k, v in vars(args).items()
+                                                          if k not in _NOT_THE_PATH}, indent=1))
+    roll.write_checkpoint(ckpt)
+
+
+def resume(roll: WheelRolling, ckpt: pathlib.Path, args) -> int:
+    """Continue ``roll`` from the checkpoint ``ckpt``; its Newton iterations.  Raises ``SystemExit``
+    (status 2) when the checkpoint was written with other arguments."""
+    saved = json.loads((ckpt / "args.json").read_text())
+    changed = [k for k, v in vars(args).items() if k not in _NOT_THE_PATH and saved.get(k) != v]
+    if changed:
+        if roll.comm.rank == 0:
+            print(f"--checkpoint: {ckpt} was written with other {', '.join('--' + k.replace('_', '-') for k in changed)}"
+                  " (remove it to start over)", file=sys.stderr)
+        raise SystemExit(2)
+    its = roll.read_checkpoint(ckpt)
+    if roll.comm.rank == 0:
+        print(f"continuing from {ckpt} at {(roll.position - roll.x_start) / D:.3f} d of travel "
+              f"({len(roll.steps)} steps, {its} Newton iterations)", flush=True)
+    return its
 
 
 def parser() -> argparse.ArgumentParser:
@@ -245,6 +299,10 @@ def parser() -> argparse.ArgumentParser:
                    help="one line per rolled step on stderr (travel, sinkage, forces, time left)")
     p.add_argument("--skip-continuous", action="store_true")
     p.add_argument("--skip-constant-load", action="store_true")
+    p.add_argument("--checkpoint", metavar="DIR",
+                   help="continuous and held runs: write the state to DIR every --checkpoint-every steps, and "
+                        "continue from it when started again with the same arguments (any number of ranks)")
+    p.add_argument("--checkpoint-every", type=int, default=10, metavar="STEPS")
     p.add_argument("--out")
     p.add_argument("--table", nargs="+", metavar="JSON", help="print the held Q_V of saved runs and stop")
     return p
@@ -365,6 +423,8 @@ def main(argv=None) -> int:
     for name in ("travel_step", "roll_step"):
         if getattr(args, name) < 0:
             p.error(f"--{name.replace('_', '-')}: must be >= 0 mm, got {getattr(args, name):g}")
+    if args.checkpoint_every < 1:
+        p.error(f"--checkpoint-every: must be >= 1 step, got {args.checkpoint_every}")
     if args.hold_sinkage and len(args.hold_sinkage) != len(args.mu):
         p.error("--hold-sinkage: give one sinkage per --mu value")
     for i, mu in enumerate(args.mu):

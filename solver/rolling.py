@@ -28,7 +28,9 @@ resistance), > 0 for a wheel moving in +x.
 """
 from __future__ import annotations
 
+import json
 import math
+import pathlib
 import time
 from dataclasses import dataclass, replace
 from typing import Callable
@@ -37,6 +39,7 @@ import numpy as np
 from mpi4py import MPI
 
 from rollsim import compat
+from rollsim.files import atomic_write_text
 from rollsim.log import get_logger
 
 from .contact import PoseDerivatives, contact_cell_size
@@ -360,6 +363,37 @@ class WheelRolling:
         self._ind.load_state(st)
         del self.steps[st["n_roll_steps"]:]
         self.slip_ratio = st["slip_ratio"]
+
+    def write_checkpoint(self, path) -> None:
+        """Write the converged state to the directory ``path``: the soil's state and the wheel's
+        pose as :meth:`WheelIndentation.write_checkpoint`, then ``rolling.json`` (the rolling steps
+        and the predictors of the next step), replaced atomically by rank 0.  Call it between
+        steps (from ``on_step``) or between protocols; :meth:`read_checkpoint` continues from it."""
+        path = pathlib.Path(path)
+        self._ind.write_checkpoint(path)
+        if self.comm.rank == 0:
+            meta = {"position": self.position, "newton_iterations": self.newton_iterations,
+                    "slip_ratio": self.slip_ratio, "sink_rate": self._sink_rate,
+                    "steps": [vars(s) for s in self.steps]}
+            atomic_write_text(path / "rolling.json", json.dumps(meta, indent=1))
+        self.comm.barrier()
+
+    def read_checkpoint(self, path) -> int:
+        """Continue from a :meth:`write_checkpoint` directory on the same mesh, with any number of
+        ranks (call after :meth:`gravity_step`); a roll then goes on from the stored position and
+        sinkage.  Returns the Newton iterations of the run that wrote it.  Raises ``ValueError``
+        naming what does not match."""
+        path = pathlib.Path(path)
+        if not (path / "rolling.json").exists():
+            raise ValueError(f"checkpoint {path}: no rolling.json (not written by a rolling wheel)")
+        self._ind.read_checkpoint(path)
+        meta = json.loads((path / "rolling.json").read_text())
+        if abs(meta["position"] - self.position) > 1e-9 * self.d:
+            raise ValueError(f"checkpoint {path}: rolling.json is at x = {meta['position']:.6f} m, state.npz at "
+                             f"{self.position:.6f} m (interrupted while writing)")
+        self.steps[:] = [RollingStep(**s) for s in meta["steps"]]
+        self.slip_ratio, self._sink_rate = meta["slip_ratio"], meta["sink_rate"]
+        return int(meta["newton_iterations"])
 
     @property
     def newton_iterations(self) -> int:

@@ -420,7 +420,7 @@ def test_held_run_logs_a_line_per_step_with_progress(benchmarks, monkeypatch, ca
     protocols = benchmarks[0].protocols
 
     class Rolling:
-        steps, newton_iterations, cuts, n_dofs = [], 0, 0, 10
+        steps, newton_iterations, cuts, n_dofs, position, x_start = [], 0, 0, 10, 0.0, 0.0
 
         def __init__(self, *args, **kwargs):
             pass
@@ -441,3 +441,38 @@ def test_held_run_logs_a_line_per_step_with_progress(benchmarks, monkeypatch, ca
     caplog.set_level("INFO", logger="rollsim")
     protocols.continuous(protocols.MPI.COMM_WORLD, 0.0, args, s_hold=0.03)
     assert ("50%" in caplog.text and "Q_V = 90.00 kN" in caplog.text) == progress
+
+
+def test_held_run_continues_from_its_checkpoint(benchmarks, tmp_mpi_path, monkeypatch):
+    """A held run killed after its fifth rolled step (checkpoints every second step) and started
+    again with the same arguments gives the uninterrupted run's curve; other arguments are refused
+    (exit 2) before anything is solved."""
+    protocols = benchmarks[0].protocols
+    argv = ["--mu", "0", "--hexahedra", "--refinement", "3", "--skip-constant-load", "--skip-continuous",
+            "--hold-sinkage", "20", "--s0", "0.005", "--ramp", "0.08", "--travel", "0.2", "--cont-length", "1.2",
+            "--roll-step", "50"]
+    whole, resumed = tmp_mpi_path / "whole.json", tmp_mpi_path / "resumed.json"
+    assert protocols.main(argv + ["--out", str(whole)]) == 0
+    ckpt = ["--checkpoint", str(tmp_mpi_path / "ckpt"), "--checkpoint-every", "2"]
+    update = protocols.TravelProgress.update
+
+    rolled = []
+
+    def killed_after_five(self, st):
+        update(self, st)
+        rolled.extend([st.travel] * (st.travel > 0))
+        if len(rolled) == 5:
+            raise KeyboardInterrupt
+
+    monkeypatch.setattr(protocols.TravelProgress, "update", killed_after_five)
+    with pytest.raises(KeyboardInterrupt):
+        protocols.main(argv + ckpt + ["--out", str(resumed)])
+    monkeypatch.setattr(protocols.TravelProgress, "update", update)
+    with pytest.raises(SystemExit) as exit_info:
+        protocols.main(argv[:-1] + ["40"] + ckpt + ["--out", str(resumed)])
+    assert exit_info.value.code == 2 and not resumed.exists()
+    assert protocols.main(argv + ckpt + ["--out", str(resumed)]) == 0
+    protocols.MPI.COMM_WORLD.barrier()           # rank 0 writes the results
+    a, b = ([r["hold"] for r in json.loads(p.read_text())["results"]][0] for p in (whole, resumed))
+    assert a["steps"] == b["steps"] and a["newton_iterations"] == b["newton_iterations"]
+    np.testing.assert_allclose(np.array(b["curve"]), np.array(a["curve"]), rtol=1e-8, atol=1e-9)

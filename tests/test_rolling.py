@@ -281,6 +281,46 @@ def test_partition_independent_rolling(comm):
         assert a.rotation == pytest.approx(b.rotation, rel=1e-7, abs=1e-12)
 
 
+def test_checkpoint_continues_the_roll(comm, tmp_mpi_path):
+    """A roll ramping into plastic clay, written to a checkpoint after its first step and continued
+    by a new WheelRolling (the rest of the travel and of the ramp), gives the uninterrupted run's
+    steps to 1e-8; under mpirun the 2-rank checkpoint is also continued on one rank.  A checkpoint
+    of an indentation is refused."""
+    dx = 0.04
+    control = StepControl(dt=dx, dt_max=dx, dt_min=1e-3, grow=1.0)
+    travel, ramp, s_end = 2.5 * dx, 1.5 * dx, 0.015 * D
+
+    def wheel(cm):
+        roll = WheelRolling(_tiny(cm), CylinderWheel(D, B, B / 12), CLAY, gamma=GAMMA)
+        roll.gravity_step()
+        return roll
+
+    def write_after_first(st):
+        if st.travel > 0 and not written:
+            whole.write_checkpoint(tmp_mpi_path / "ckpt")
+            written.append(st.travel)
+
+    written = []
+    whole = wheel(comm)
+    whole.press(0.01 * D, control=StepControl(dt=1.0, dt_max=1.0, dt_min=1e-3))
+    whole.roll(travel, s_end, ramp=ramp, control=control, on_step=write_after_first)
+    assert whole.steps[-1].plastic > 0 and len(whole.steps) >= 4
+    for cm in [comm] + ([MPI.COMM_SELF] if comm.size > 1 else []):
+        resumed = wheel(cm)
+        assert resumed.read_checkpoint(tmp_mpi_path / "ckpt") > 0
+        done = resumed.position - resumed.x_start
+        assert done == pytest.approx(dx) and resumed.steps[-1].travel == pytest.approx(dx)
+        resumed.roll(travel - done, s_end, ramp=ramp - done, control=control)
+        assert [s.iterations for s in resumed.steps] == [s.iterations for s in whole.steps]
+        for a, b in zip(resumed.steps, whole.steps):
+            assert (a.travel, a.sinkage) == pytest.approx((b.travel, b.sinkage), rel=1e-12)
+            assert a.QV == pytest.approx(b.QV, rel=1e-8)
+    indentation = tmp_mpi_path / "indentation"
+    whole._ind.write_checkpoint(indentation)
+    with pytest.raises(ValueError, match="rolling.json"):
+        wheel(comm).read_checkpoint(indentation)
+
+
 def _rolled(comm, material, relaxation_length: float, sinkage: float = 0.01 * D, weak=None,
             weak_from: float | None = None, **kw) -> RollingStep:
     """mu = 0.8 on the tiny block: pressed to ``sinkage`` (m), rolled 0.1 d at that sinkage; the
