@@ -26,9 +26,9 @@ For each friction coefficient mu:
     mpirun -n 2 python benchmarks/bench_rolling_protocols.py --mu 0 --length 2.6 --cl-travel 1.5 \
         --skip-continuous --hold --s0 0.002 --ramp 1.0 --travel 2.0 --cont-length 3.2
 
-``--checkpoint DIR`` writes the state of the continuous and held runs every ``--checkpoint-every``
-steps; started again with the same arguments (on any number of ranks) a killed run continues from
-its last checkpoint, and with other arguments it stops (exit 2) naming them.
+``--checkpoint DIR`` writes the state of each rolling run every ``--checkpoint-every`` steps;
+started again with the same arguments (on any number of ranks) a killed run continues from its
+last checkpoint, and with other arguments it stops (exit 2) naming them.
 
 Prints s_cl, s_cont and their difference (the agreement criterion is 5 %), Q_H of both,
 the friction effect on the steady sinkage (mu vs the first mu), wall times, steps and linear solves.
@@ -110,14 +110,20 @@ def constant_load(comm, mu, args):
     roll.gravity_step()
     load = args.load * 1e3
     out = {"mu": mu, "cells": tm.stats.cells, "dofs": roll.n_dofs, "status": "ok"}
+    ckpt = checkpoint_dir(args, "constant_load", mu)
+    before = resume(roll, ckpt, args)
+    resumed, (its_before, time_before) = before is not None, before or (0, 0.0)
+    on_step = checkpointing(roll, ckpt, args, TravelProgress(args.cl_travel * D, D,
+                                                             enabled=args.progress and comm.rank == 0))
     try:
-        res = roll.press_to_load(load, 0.25 * D)
-        if res.status != "ok":
-            raise SolverDivergedError(f"press: {res.status} {res.reason}", None, [])
-        progress = TravelProgress(args.cl_travel * D, D, enabled=args.progress and comm.rank == 0)
-        ss = roll.roll_at_load(load, args.cl_travel * D, x_soft=args.stiff * D, steady_rtol=args.steady_rtol,
-                               min_travel=args.steady_min_travel * D, on_step=progress.update,
-                               control=travel_control(args.cl_travel * D, args.travel_step))
+        if not resumed:
+            res = roll.press_to_load(load, 0.25 * D)
+            if res.status != "ok":
+                raise SolverDivergedError(f"press: {res.status} {res.reason}", None, [])
+        done = roll.position - roll.x_start
+        ss = roll.roll_at_load(load, args.cl_travel * D - done, x_soft=args.stiff * D, steady_rtol=args.steady_rtol,
+                               min_travel=args.steady_min_travel * D, on_step=on_step,
+                               control=travel_control(args.cl_travel * D, args.travel_step), resumed=resumed)
         L = roll.contact_length()
         # the rolled steps only: the lift-off moves the wheel vertically without a torque balance
         max_rel_moment = max(abs(st.moment) / (load * D) for st in roll.steps if st.travel > 0)
@@ -132,8 +138,8 @@ def constant_load(comm, mu, args):
             out.update(rut_depth=rut["rut_depth_m"], rebound=rut["rebound_m"])
     except SolverDivergedError as err:
         out["status"] = f"failed: {err}"
-    out.update(steps=len(roll.steps), newton_iterations=roll.newton_iterations, cuts=roll.cuts,
-               time_s=comm.allreduce(time.perf_counter() - t0, op=MPI.MAX),
+    out.update(steps=len(roll.steps), newton_iterations=roll.newton_iterations + its_before, cuts=roll.cuts,
+               time_s=comm.allreduce(time.perf_counter() - t0, op=MPI.MAX) + time_before,
                relaxed_travel=[[float(a), float(b)] for a, b in roll.relaxed_travel],
                travel_failures=[float(x) for x in roll.travel_failures],
                curve=[(st.travel, st.sinkage, st.QV, st.QH) for st in roll.steps])
@@ -169,20 +175,10 @@ def continuous(comm, mu, args, s_hold=None):
     roll.gravity_step()
     out = {"mu": mu, "status": "ok", "s_hold": s_hold, "dofs": roll.n_dofs}
     s_end = args.s_end * D if s_hold is None else s_hold
-    ckpt = None
-    if args.checkpoint:
-        ckpt = pathlib.Path(args.checkpoint) / f"{'continuous' if s_hold is None else 'hold'}_mu{mu:g}"
-    its_before = time_before = 0.0
-    if ckpt is not None and (ckpt / "rolling.json").exists():
-        its_before = resume(roll, ckpt, args) - roll.newton_iterations    # the gravity step counted once
-        time_before = sum(st.time for st in roll.steps)
-    progress = TravelProgress(args.travel * D, D, enabled=args.progress and comm.rank == 0)
-
-    def on_step(st):
-        progress.update(st)
-        if ckpt is not None and st.travel > 0 and len(roll.steps) % args.checkpoint_every == 0:
-            write_checkpoint(roll, ckpt, args)
-
+    ckpt = checkpoint_dir(args, "continuous" if s_hold is None else "hold", mu)
+    its_before, time_before = resume(roll, ckpt, args) or (0, 0.0)
+    on_step = checkpointing(roll, ckpt, args, TravelProgress(args.travel * D, D,
+                                                             enabled=args.progress and comm.rank == 0))
     try:
         roll.press(args.s0 * D)
         done, ramp = roll.position - roll.x_start, (args.ramp or args.travel) * D
@@ -214,16 +210,31 @@ def continuous(comm, mu, args, s_hold=None):
         out.update(s_cont=float(s[i - 1] + w * (s[i] - s[i - 1])), QH_cont=float(qh[i - 1] + w * (qh[i] - qh[i - 1])))
     else:
         out["s_cont"] = None
-    out.update(steps=len(roll.steps), newton_iterations=roll.newton_iterations + int(its_before), cuts=roll.cuts,
+    out.update(steps=len(roll.steps), newton_iterations=roll.newton_iterations + its_before, cuts=roll.cuts,
                time_s=comm.allreduce(time.perf_counter() - t0, op=MPI.MAX) + time_before,
                curve=[(st.travel, st.sinkage, st.QV, st.QH) for st in roll.steps])
     return out
 
 
-#: arguments that do not change a continuous or held run's path (a checkpoint written with other
+#: arguments that do not change a rolling run's path (a checkpoint written with other
 #: values of them is continued)
 _NOT_THE_PATH = ("out", "progress", "checkpoint", "checkpoint_every", "table", "skip_continuous",
                  "skip_constant_load")
+
+
+def checkpoint_dir(args, protocol: str, mu: float) -> pathlib.Path | None:
+    """The checkpoint directory of one run (``protocol`` at friction ``mu``) under ``--checkpoint``."""
+    where = getattr(args, "checkpoint", None)      # absent from the levels of the other benchmarks
+    return pathlib.Path(where) / f"{protocol}_mu{mu:g}" if where else None
+
+
+def checkpointing(roll: WheelRolling, ckpt: pathlib.Path | None, args, progress: TravelProgress):
+    """``on_step`` of a roll: a progress line, and every ``--checkpoint-every`` steps the state in ``ckpt``."""
+    def on_step(st):
+        progress.update(st)
+        if ckpt is not None and st.travel > 0 and len(roll.steps) % args.checkpoint_every == 0:
+            write_checkpoint(roll, ckpt, args)
+    return on_step
 
 
 def write_checkpoint(roll: WheelRolling, ckpt: pathlib.Path, args) -> None:
@@ -235,9 +246,12 @@ def write_checkpoint(roll: WheelRolling, ckpt: pathlib.Path, args) -> None:
     roll.write_checkpoint(ckpt)
 
 
-def resume(roll: WheelRolling, ckpt: pathlib.Path, args) -> int:
-    """Continue ``roll`` from the checkpoint ``ckpt``; its Newton iterations.  Raises ``SystemExit``
+def resume(roll: WheelRolling, ckpt: pathlib.Path | None, args) -> tuple[int, float] | None:
+    """Continue ``roll`` (after its gravity step) from the checkpoint ``ckpt`` if there is one: the
+    Newton iterations and the wall time (s) of the steps before it, else None.  Raises ``SystemExit``
     (status 2) when the checkpoint was written with other arguments."""
+    if ckpt is None or not (ckpt / "rolling.json").exists():
+        return None
     saved = json.loads((ckpt / "args.json").read_text())
     changed = [k for k, v in vars(args).items() if k not in _NOT_THE_PATH and saved.get(k) != v]
     if changed:
@@ -245,11 +259,11 @@ def resume(roll: WheelRolling, ckpt: pathlib.Path, args) -> int:
             print(f"--checkpoint: {ckpt} was written with other {', '.join('--' + k.replace('_', '-') for k in changed)}"
                   " (remove it to start over)", file=sys.stderr)
         raise SystemExit(2)
-    its = roll.read_checkpoint(ckpt)
+    its = roll.read_checkpoint(ckpt) - roll.newton_iterations        # the gravity step counted once
     if roll.comm.rank == 0:
         print(f"continuing from {ckpt} at {(roll.position - roll.x_start) / D:.3f} d of travel "
               f"({len(roll.steps)} steps, {its} Newton iterations)", flush=True)
-    return its
+    return its, sum(st.time for st in roll.steps)
 
 
 def parser() -> argparse.ArgumentParser:
@@ -300,7 +314,7 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--skip-continuous", action="store_true")
     p.add_argument("--skip-constant-load", action="store_true")
     p.add_argument("--checkpoint", metavar="DIR",
-                   help="continuous and held runs: write the state to DIR every --checkpoint-every steps, and "
+                   help="write the state of each rolling run to DIR every --checkpoint-every steps, and "
                         "continue from it when started again with the same arguments (any number of ranks)")
     p.add_argument("--checkpoint-every", type=int, default=10, metavar="STEPS")
     p.add_argument("--out")

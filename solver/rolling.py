@@ -575,7 +575,7 @@ class WheelRolling:
                      min_window_elements: float = 3.0, min_travel: float | None = None,
                      on_step: Callable[[RollingStep], None] | None = None,
                      control: StepControl | None = None,
-                     on_start_over: Callable[[int], None] | None = None) -> "SteadyState":
+                     on_start_over: Callable[[int], None] | None = None, resumed: bool = False) -> "SteadyState":
         """Roll at constant whole-wheel ``Q_V = load`` (N), towed, up to ``travel`` (m) in +x.
 
         Each travel step solves the sinkage and the rotation increment for ``Q_V = load`` (to
@@ -589,27 +589,27 @@ class WheelRolling:
         zone is not taken for steady rolling.  The wheel then rolls ``run_out`` windows further
         (the rut behind it is then unloaded) and stops.  Default ``control``: steps of
         :attr:`travel_step` (after a cut, they grow back by 1.5x per step).  ``on_start_over``: as :meth:`roll`
-        (a steady state found before the roll started over is forgotten).
+        (a steady state found before the roll started over is forgotten).  ``resumed``: the rolled
+        steps so far (from :meth:`read_checkpoint`) are this roll's: the steady-state search goes
+        over them again as it did while they were rolled, and ``travel`` is what is left of it.
         Returns the :class:`SteadyState` (``reached = False`` when ``travel`` ran out first)."""
         if not load > 0 or not travel > 0:
             raise ValueError(f"load and travel must be > 0, got {load}, {travel}")
         self.target_load = float(load)
         x_soft = self.x_start if x_soft is None else float(x_soft)
         min_travel = STEADY_MIN_TRAVEL * 2 * self.R if min_travel is None else float(min_travel)
-        if self.x_start + travel < x_soft + min_travel:
+        if self.position + travel < x_soft + min_travel:
             log.warning("the travel of %g m ends %.3f m before the wheel has rolled the %.3f m on the test soil "
                         "after which steady state is looked for: no steady state will be detected",
-                        travel, x_soft + min_travel - self.x_start - travel, min_travel)
+                        travel, x_soft + min_travel - self.position - travel, min_travel)
         found: list[SteadyState] = []
         stop_at = [math.inf]
 
-        def monitor(st: RollingStep):
-            if on_step is not None:
-                on_step(st)
+        def search(st: RollingStep, steps: list[RollingStep]):
             if not found:
                 # the element-passing ripple has the period of a contact element: average >= 3 of them
                 window = max(self.contact_length(st), min_window_elements * self.contact.h)
-                ss = detect_steady_state(self.steps, self.x_start, x_soft, window, steady_rtol, steady_qh_rtol,
+                ss = detect_steady_state(steps, self.x_start, x_soft, window, steady_rtol, steady_qh_rtol,
                                          min_travel)
                 if ss is not None:
                     found.append(ss)
@@ -617,6 +617,11 @@ class WheelRolling:
                     log.info("steady state at travel %.3f m: s = %.5f m, Q_H = %.3f kN (changes %.2g / %.2g "
                              "over %.3f m); rolling %.3f m more for the rut", st.travel, ss.sinkage, ss.QH / 1e3,
                              ss.sinkage_change, ss.QH_change, ss.window, run_out * ss.window)
+
+        def monitor(st: RollingStep):
+            if on_step is not None:
+                on_step(st)
+            search(st, self.steps)
             if st.travel >= stop_at[0] - 1e-12:
                 raise _StopRolling
 
@@ -626,8 +631,14 @@ class WheelRolling:
             if on_start_over is not None:
                 on_start_over(dropped)
 
+        if resumed:
+            for k, st in enumerate(self.steps):
+                if st.travel > 0:
+                    search(st, self.steps[:k + 1])
         control = control or constant_load_control(travel, self.travel_step)
         try:
+            if found and self.steps[-1].travel >= stop_at[0] - 1e-12:
+                raise _StopRolling
             self.roll(travel, self.sinkage, on_step=monitor, control=control, on_start_over=started_over)
         except _StopRolling:
             pass

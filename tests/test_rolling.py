@@ -20,7 +20,7 @@ from rollsim.scene import parse_scene
 from rollsim.solver import DruckerPrager, VonMises
 from rollsim.solver.materials import dp_to_mc
 from rollsim.solver.drivers.rolling_continuous import VERIFIED_RAMP_RATE, ramp_advice
-from rollsim.solver.rolling import RollingStep, WheelRolling, detect_steady_state
+from rollsim.solver.rolling import RollingStep, WheelRolling, constant_load_control, detect_steady_state
 from rollsim.solver.run import run_scene
 from rollsim.solver.rundir import HISTORY_COLUMNS
 from rollsim.solver.stepping import SolverDivergedError, StepControl
@@ -319,6 +319,40 @@ def test_checkpoint_continues_the_roll(comm, tmp_mpi_path):
     whole._ind.write_checkpoint(indentation)
     with pytest.raises(ValueError, match="rolling.json"):
         wheel(comm).read_checkpoint(indentation)
+
+
+@pytest.mark.slow
+def test_constant_load_roll_continues_its_steady_state_search(comm, tmp_mpi_path):
+    """A constant-load roll continued from a checkpoint written before, and one written at, the
+    step where steady state was found stops where the uninterrupted roll stopped, with the same
+    steady state and steps (the search goes over the restored steps again)."""
+    load, dx, travel = 60e3, 0.05, 0.6
+    search = dict(steady_rtol=1.0, steady_qh_rtol=1e3, min_travel=0.0, run_out=0.5, min_window_elements=1.0)
+
+    def wheel():
+        roll = WheelRolling(_tiny(comm), CylinderWheel(D, B, B / 12), CLAY, gamma=GAMMA)
+        roll.gravity_step()
+        return roll
+
+    def write(st):
+        if st.travel > 0:
+            whole.write_checkpoint(tmp_mpi_path / f"ckpt{len(whole.steps)}")
+
+    whole = wheel()
+    assert whole.press_to_load(load, 0.1 * D).status == "ok"
+    steady = whole.roll_at_load(load, travel, on_step=write, control=constant_load_control(travel, dx), **search)
+    assert steady.reached and whole.steps[-1].travel < travel - dx
+    found_at = next(k for k, st in enumerate(whole.steps, 1) if st.travel == steady.travel)
+    for k in (found_at - 2, found_at):
+        resumed = wheel()
+        resumed.read_checkpoint(tmp_mpi_path / f"ckpt{k}")
+        done = resumed.position - resumed.x_start
+        again = resumed.roll_at_load(load, travel - done, control=constant_load_control(travel - done, dx),
+                                     resumed=True, **search)
+        assert again.reached and [again.travel, again.sinkage, again.QV, again.QH, again.window] == pytest.approx(
+            [steady.travel, steady.sinkage, steady.QV, steady.QH, steady.window], rel=1e-8)
+        assert [st.travel for st in resumed.steps] == pytest.approx([st.travel for st in whole.steps], rel=1e-12)
+        assert [st.sinkage for st in resumed.steps] == pytest.approx([st.sinkage for st in whole.steps], rel=1e-8)
 
 
 def _rolled(comm, material, relaxation_length: float, sinkage: float = 0.01 * D, weak=None,
