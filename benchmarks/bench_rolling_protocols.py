@@ -51,11 +51,13 @@ from mpi4py import MPI
 
 from _bench import add_volumetric_strain, dump_json
 
-from rollsim.files import atomic_write_text
+from rollsim.files import atomic_write_text, complete_directory
 from rollsim.geometry import CylinderWheel, MeshOptions, build_soil_block, rolling_block
 from rollsim.geometry.mesh import ANISOTROPIC_REFINEMENTS
 from rollsim.log import setup_logging
+from rollsim.mpi import root_block
 from rollsim.solver import DruckerPrager, SolverDivergedError, VonMises
+from rollsim.solver.checkpoint import staged
 from rollsim.solver.drivers.rolling_constant_load import measure_rut
 from rollsim.solver.options import DEFAULT_RELAXATION_FALLBACK, DEFAULT_TRAVEL_RELAXATION_FALLBACK
 from rollsim.solver.rolling import STEADY_MIN_TRAVEL, WheelRolling, constant_load_control
@@ -110,11 +112,8 @@ def constant_load(comm, mu, args):
     roll.gravity_step()
     load = args.load * 1e3
     out = {"mu": mu, "cells": tm.stats.cells, "dofs": roll.n_dofs, "status": "ok"}
-    ckpt = checkpoint_dir(args, "constant_load", mu)
-    before = resume(roll, ckpt, args)
+    on_step, before = resumable(roll, args, "constant_load", mu, args.cl_travel * D)
     resumed, (its_before, time_before) = before is not None, before or (0, 0.0)
-    on_step = checkpointing(roll, ckpt, args, TravelProgress(args.cl_travel * D, D,
-                                                             enabled=args.progress and comm.rank == 0))
     try:
         if not resumed:
             res = roll.press_to_load(load, 0.25 * D)
@@ -175,10 +174,8 @@ def continuous(comm, mu, args, s_hold=None):
     roll.gravity_step()
     out = {"mu": mu, "status": "ok", "s_hold": s_hold, "dofs": roll.n_dofs}
     s_end = args.s_end * D if s_hold is None else s_hold
-    ckpt = checkpoint_dir(args, "continuous" if s_hold is None else "hold", mu)
-    its_before, time_before = resume(roll, ckpt, args) or (0, 0.0)
-    on_step = checkpointing(roll, ckpt, args, TravelProgress(args.travel * D, D,
-                                                             enabled=args.progress and comm.rank == 0))
+    on_step, before = resumable(roll, args, "continuous" if s_hold is None else "hold", mu, args.travel * D)
+    its_before, time_before = before or (0, 0.0)
     try:
         roll.press(args.s0 * D)
         done, ramp = roll.position - roll.x_start, (args.ramp or args.travel) * D
@@ -228,38 +225,50 @@ def checkpoint_dir(args, protocol: str, mu: float) -> pathlib.Path | None:
     return pathlib.Path(where) / f"{protocol}_mu{mu:g}" if where else None
 
 
-def checkpointing(roll: WheelRolling, ckpt: pathlib.Path | None, args, progress: TravelProgress):
-    """``on_step`` of a roll: a progress line, and every ``--checkpoint-every`` steps the state in ``ckpt``."""
+def resumable(roll: WheelRolling, args, protocol: str, mu: float, travel: float):
+    """Continue ``roll`` (after its gravity step) from its checkpoint under ``--checkpoint``, if
+    there is one (:func:`resume`), and its ``on_step``: a progress line to ``travel`` (m), and every
+    ``--checkpoint-every`` steps the state.  Returns (``on_step``, what :func:`resume` returned)."""
+    ckpt = checkpoint_dir(args, protocol, mu)
+    before = resume(roll, ckpt, args)
+    progress = TravelProgress(travel, D, enabled=args.progress and roll.comm.rank == 0,
+                              start=roll.position - roll.x_start)
+
     def on_step(st):
         progress.update(st)
         if ckpt is not None and st.travel > 0 and len(roll.steps) % args.checkpoint_every == 0:
             write_checkpoint(roll, ckpt, args)
-    return on_step
+    return on_step, before
 
 
 def write_checkpoint(roll: WheelRolling, ckpt: pathlib.Path, args) -> None:
-    """The roll's state in ``ckpt``, with the arguments that set its path (``args.json``)."""
-    if roll.comm.rank == 0:
-        ckpt.mkdir(parents=True, exist_ok=True)
-        atomic_write_text(ckpt / "args.json", json.dumps({k: v for k, v in vars(args).items()
-                                                          if k not in _NOT_THE_PATH}, indent=1))
-    roll.write_checkpoint(ckpt)
+    """The roll's state in ``ckpt``, with the arguments that set its path (``args.json``), written
+    whole beside it and then put in its place (a kill leaves the previous checkpoint or this one)."""
+    with staged(ckpt, roll.comm) as stage:
+        with root_block(roll.comm) as on_root:
+            if on_root:
+                atomic_write_text(stage / "args.json", json.dumps({k: v for k, v in vars(args).items()
+                                                                   if k not in _NOT_THE_PATH}, indent=1))
+        roll.write_checkpoint(stage)
 
 
 def resume(roll: WheelRolling, ckpt: pathlib.Path | None, args) -> tuple[int, float] | None:
     """Continue ``roll`` (after its gravity step) from the checkpoint ``ckpt`` if there is one: the
     Newton iterations and the wall time (s) of the steps before it, else None.  Raises ``SystemExit``
     (status 2) when the checkpoint was written with other arguments."""
-    if ckpt is None or not (ckpt / "rolling.json").exists():
+    if ckpt is None:
         return None
-    saved = json.loads((ckpt / "args.json").read_text())
+    found = roll.comm.bcast(complete_directory(ckpt) if roll.comm.rank == 0 else None)
+    if found is None:
+        return None
+    saved = json.loads((found / "args.json").read_text())
     changed = [k for k, v in vars(args).items() if k not in _NOT_THE_PATH and saved.get(k) != v]
     if changed:
         if roll.comm.rank == 0:
             print(f"--checkpoint: {ckpt} was written with other {', '.join('--' + k.replace('_', '-') for k in changed)}"
                   " (remove it to start over)", file=sys.stderr)
         raise SystemExit(2)
-    its = roll.read_checkpoint(ckpt) - roll.newton_iterations        # the gravity step counted once
+    its = roll.read_checkpoint(found) - roll.newton_iterations        # the gravity step counted once
     if roll.comm.rank == 0:
         print(f"continuing from {ckpt} at {(roll.position - roll.x_start) / D:.3f} d of travel "
               f"({len(roll.steps)} steps, {its} Newton iterations)", flush=True)

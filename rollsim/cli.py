@@ -147,6 +147,11 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-fields", action="store_true", help="do not write XDMF fields")
     p.add_argument("--petsc-option", action="append", default=[], metavar="KEY=VALUE",
                    help="PETSc option for the Newton solver (repeatable), e.g. snes_linesearch_type=bt")
+    p.add_argument("--checkpoint-every", type=int, default=None, metavar="N",
+                   help="rigid-wheel rolling: write checkpoint/ every N rolled steps (default 10, 0: never); "
+                        "a run started again on the same --out continues from it")
+    p.add_argument("--restart", action="store_true",
+                   help="rigid-wheel rolling: start from the beginning even if --out holds a checkpoint of this run")
 
     p = sub.add_parser("study", parents=[common], help="run a sweep of scenes (resumes when re-run)",
                        description="Run a study: a base scene plus sweeps (grid, zip or CSV rows), "
@@ -444,9 +449,18 @@ def cmd_run(args) -> dict:
     if scene.wheel.type != "rigid" and scene.loading.protocol == "rolling-continuous":
         raise InputError("wheel.type", 'a pneumatic wheel runs with protocol = "indentation" or '
                          '"rolling-constant-load"')
+    resumable = {}
+    if scene.wheel.type == "rigid" and scene.loading.protocol.startswith("rolling"):
+        if args.checkpoint_every is not None and args.checkpoint_every < 0:
+            raise InputError("--checkpoint-every", "must be 0 (never) or a positive number of steps")
+        resumable = {"restart": args.restart} | ({} if args.checkpoint_every is None
+                                                 else {"checkpoint_every": args.checkpoint_every})
+    elif args.checkpoint_every is not None or args.restart:
+        raise InputError("--checkpoint-every" if args.checkpoint_every is not None else "--restart",
+                         "only a rigid wheel's rolling run writes checkpoints")
     from rollsim.solver.run import run_scene
     summary = run_scene(scene, args.out, comm, progress=not args.quiet, petsc_options=options or None,
-                        write_fields=not args.no_fields)
+                        write_fields=not args.no_fields, **resumable)
     if comm.rank == 0:
         from rollsim.studies.report import run_report
         run_report(args.out)

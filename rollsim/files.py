@@ -4,17 +4,20 @@ one), reading text and TOML with one-line errors, and checking output paths befo
 Every output file of rollsim (run directories, studies, design tables, checkpoints) is written
 through :func:`atomic_path`: the data go to a hidden temporary file beside the target, which is
 flushed to disk and renamed onto it; on any failure the temporary file is removed and the old
-file, if any, is left as it was.
+file, if any, is left as it was.  A directory whose files belong together (a checkpoint) is
+written whole into :func:`staging_directory` and put in place by :func:`replace_directory`;
+:func:`complete_directory` finds its last complete version.
 """
 from __future__ import annotations
 
 import contextlib
 import os
 import pathlib
+import shutil
 from typing import Iterator
 
-__all__ = ["atomic_path", "atomic_write_text", "atomic_write_bytes", "read_text", "read_toml", "output_directory",
-           "output_file"]
+__all__ = ["atomic_path", "atomic_write_text", "atomic_write_bytes", "staging_directory", "replace_directory",
+           "complete_directory", "remove_directory", "read_text", "read_toml", "output_directory", "output_file"]
 
 
 @contextlib.contextmanager
@@ -44,6 +47,45 @@ def atomic_write_text(path, text: str) -> None:
     """Write ``text`` to ``path`` atomically."""
     with atomic_path(path) as tmp:
         tmp.write_text(text)
+
+
+def staging_directory(path) -> pathlib.Path:
+    """The hidden directory beside ``path`` where its next version is written."""
+    path = pathlib.Path(path)
+    return path.with_name(f".{path.name}.new")
+
+
+def _previous(path: pathlib.Path) -> pathlib.Path:
+    return path.with_name(f".{path.name}.old")
+
+
+def replace_directory(path) -> None:
+    """Put the :func:`staging_directory` of ``path`` in its place: the current version is moved
+    aside, the new one renamed onto ``path``, the old one removed.  Killed at any point, it leaves
+    a complete version that :func:`complete_directory` finds (one process only, e.g. rank 0)."""
+    path = pathlib.Path(path)
+    old = _previous(path)
+    if not path.exists() and old.exists():      # killed between the renames of the last replacement
+        os.replace(old, path)
+    shutil.rmtree(old, ignore_errors=True)
+    if path.exists():
+        os.replace(path, old)
+    os.replace(staging_directory(path), path)
+    shutil.rmtree(old, ignore_errors=True)
+
+
+def complete_directory(path) -> pathlib.Path | None:
+    """The last complete version of a directory written by :func:`replace_directory`: ``path``,
+    else the previous version (killed between the two renames), else None."""
+    path = pathlib.Path(path)
+    return next((p for p in (path, _previous(path)) if p.is_dir()), None)
+
+
+def remove_directory(path) -> None:
+    """Remove a directory written by :func:`replace_directory` with its staged and old versions."""
+    path = pathlib.Path(path)
+    for p in (path, staging_directory(path), _previous(path)):
+        shutil.rmtree(p, ignore_errors=True)
 
 
 def read_text(path, field: str) -> str:

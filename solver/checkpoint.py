@@ -2,9 +2,14 @@
 quadrature point, so a state written on one partition (number of ranks, or the same number of
 ranks partitioned differently: the graph partitioner is not deterministic) is read on another.
 
-Used by :meth:`rollsim.solver.indentation.WheelIndentation.write_checkpoint`.
+Used by :meth:`rollsim.solver.indentation.WheelIndentation.write_checkpoint`.  A checkpoint of
+several files is written whole by :func:`staged` and then put in place of the previous one.
 """
 from __future__ import annotations
+
+import contextlib
+import pathlib
+from typing import Iterator
 
 import numpy as np
 import ufl
@@ -12,10 +17,29 @@ from dolfinx import fem
 from scipy.spatial import cKDTree
 
 from rollsim import compat
+from rollsim.files import remove_directory, replace_directory, staging_directory
+from rollsim.mpi import root_block
 
 #: Largest distance between a stored and a local point that still counts as the same point,
 #: relative to the extent of the stored points (coordinates agree to round-off between partitions).
 MATCH_RTOL = 1e-8
+
+
+@contextlib.contextmanager
+def staged(path, comm) -> Iterator[pathlib.Path]:
+    """An empty directory (collective; rank 0 makes it) for the next version of the checkpoint
+    directory ``path``, put in its place when the block ends without an exception: a kill at any
+    moment leaves the previous version or this one whole (:func:`rollsim.files.complete_directory`).
+    A failure on rank 0 is raised on every rank."""
+    stage = staging_directory(path)
+    with root_block(comm) as on_root:
+        if on_root:
+            remove_directory(stage)
+            stage.mkdir(parents=True)
+    yield stage
+    with root_block(comm) as on_root:
+        if on_root:
+            replace_directory(path)
 
 
 def _points(V) -> np.ndarray:

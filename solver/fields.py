@@ -42,9 +42,10 @@ def cell_averages(problem, f: fem.Function, width: int) -> np.ndarray:
 
 
 class FieldWriter:
-    """Writes the fields of a :class:`~rollsim.solver.problem.PlasticityProblem` under ``directory``."""
+    """Writes the fields of a :class:`~rollsim.solver.problem.PlasticityProblem` under ``directory``
+    (the time series in the file ``series``)."""
 
-    def __init__(self, problem, directory, cell_tags=None):
+    def __init__(self, problem, directory, cell_tags=None, series: str = "fields.xdmf"):
         self.problem = pb = problem
         self.dir = pathlib.Path(directory)
         msh = pb.mesh
@@ -65,7 +66,7 @@ class FieldWriter:
             own = cell_tags.indices < n
             self.layer.x.array[self._cell_dofs[cell_tags.indices[own]]] = cell_tags.values[own]
             self.layer.x.scatter_forward()
-        self._file = compat.xdmf_file(self.comm, self.dir / "fields.xdmf", "w")
+        self._file = compat.xdmf_file(self.comm, self.dir / series, "w")
         self._file.write_mesh(msh)
         self._file.write_function(self.layer, 0.0)
 

@@ -400,6 +400,11 @@ class WheelRolling:
         return self._ind.newton_iterations
 
     @property
+    def rolling(self) -> bool:
+        """True while :meth:`roll` moves the wheel (not in a press or the lift-off)."""
+        return self._rolling
+
+    @property
     def relaxation_length(self) -> float:
         """Duvaut-Lions relaxation length, m (0: off); the press at constant load uses it too."""
         return self._ind.relaxation_length
@@ -591,9 +596,10 @@ class WheelRolling:
         :attr:`travel_step` (after a cut, they grow back by 1.5x per step).  ``on_start_over``: as :meth:`roll`
         (a steady state found before the roll started over is forgotten).  ``resumed``: the rolled
         steps so far (from :meth:`read_checkpoint`) are this roll's: the steady-state search goes
-        over them again as it did while they were rolled, and ``travel`` is what is left of it.
-        Returns the :class:`SteadyState` (``reached = False`` when ``travel`` ran out first)."""
-        if not load > 0 or not travel > 0:
+        over them again as it did while they were rolled, and ``travel`` is what is left of it (<= 0:
+        none; the search only).  Returns the :class:`SteadyState` (``reached = False`` when ``travel``
+        ran out first)."""
+        if not load > 0 or not (travel > 0 or resumed):
             raise ValueError(f"load and travel must be > 0, got {load}, {travel}")
         self.target_load = float(load)
         x_soft = self.x_start if x_soft is None else float(x_soft)
@@ -635,11 +641,11 @@ class WheelRolling:
             for k, st in enumerate(self.steps):
                 if st.travel > 0:
                     search(st, self.steps[:k + 1])
-        control = control or constant_load_control(travel, self.travel_step)
         try:
-            if found and self.steps[-1].travel >= stop_at[0] - 1e-12:
+            if found and self.steps[-1].travel >= stop_at[0] - 1e-12 or travel <= 1e-9 * self.d:
                 raise _StopRolling
-            self.roll(travel, self.sinkage, on_step=monitor, control=control, on_start_over=started_over)
+            self.roll(travel, self.sinkage, on_step=monitor, control=control or constant_load_control(
+                travel, self.travel_step), on_start_over=started_over)
         except _StopRolling:
             pass
         finally:

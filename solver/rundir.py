@@ -14,6 +14,7 @@ half a file.  :class:`TravelProgress` prints the progress of rolling runs.
 """
 from __future__ import annotations
 
+import collections
 import csv
 import io
 import json
@@ -211,12 +212,23 @@ def json_default(obj):
 
 class TravelProgress:
     """Progress of a rolling run on rank 0: a bar with travel, sinkage and forces, one log line
-    per step (readable in files and under mpirun), with the mean step time and an estimate of
-    the time left for the travel."""
+    per step (readable in files and under mpirun), and the time left for the travel at the pace
+    of the last :attr:`window` steps (a roll slows down as it sinks and plastifies, so the mean
+    pace since the start would promise too little).  ``start`` (m) is the travel already done
+    when the bar is made (a roll continued from a checkpoint)."""
 
-    def __init__(self, travel: float, d: float, enabled: bool = True, width: int = 24):
+    window = 10
+
+    def __init__(self, travel: float, d: float, enabled: bool = True, width: int = 24, start: float = 0.0):
         self.travel, self.d, self.enabled, self.width = travel, d, enabled, width
-        self.t0 = time.perf_counter()
+        self.paces = collections.deque([(time.perf_counter(), start)], maxlen=self.window + 1)
+
+    def time_left(self, x: float) -> float | None:
+        """Seconds left to the end of the travel at the recent pace, after a step that ended at
+        travel ``x`` (m); None before a step has advanced the wheel."""
+        self.paces.append((time.perf_counter(), x))
+        (t0, x0), (t1, x1) = self.paces[0], self.paces[-1]
+        return (t1 - t0) / (x1 - x0) * max(self.travel - x1, 0.0) if x1 > x0 + 1e-12 * self.d else None
 
     def update(self, st) -> None:
         """Log one line for the converged ``RollingStep`` ``st``."""
@@ -224,8 +236,8 @@ class TravelProgress:
             return
         frac = min(max(st.travel / self.travel, 0.0), 1.0)
         filled = int(round(frac * self.width))
-        elapsed = time.perf_counter() - self.t0
-        eta = (f", <= {elapsed * (1 - frac) / frac / 60:.1f} min left" if frac > 0.02 else "")
+        left = self.time_left(st.travel)
+        eta = "" if left is None else f", about {left / 60:.1f} min left"
         log.info("[%s%s] %3.0f%%  x = %.3f m  s = %.2f mm (s/d %.4f)  Q_V = %.2f kN  Q_H = %.2f kN  M = %.2g N m  "
                  "%d its/%d solves%s", "#" * filled, "." * (self.width - filled), 100 * frac, st.travel,
                  1e3 * st.sinkage, st.sinkage / self.d, st.QV / 1e3, st.QH / 1e3, st.moment, st.iterations,

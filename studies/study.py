@@ -50,7 +50,7 @@ import numpy as np
 from mpi4py import MPI
 
 from rollsim import __version__
-from rollsim.files import atomic_write_text, read_text, read_toml
+from rollsim.files import atomic_write_text, complete_directory, read_text, read_toml
 from rollsim.log import get_logger
 from rollsim.mpi import root_block
 from rollsim.scene import Scene, parse_scene
@@ -303,6 +303,12 @@ def case_state(case_dir: pathlib.Path, expected: str) -> str:
     return "done" if recorded == expected else "changed"
 
 
+def has_checkpoint(case_dir: pathlib.Path) -> bool:
+    """True when an unfinished case left a rolling checkpoint: its run continues from it (the
+    run checks that the checkpoint is of the same scene) instead of starting again."""
+    return complete_directory(case_dir / "run" / "checkpoint") is not None
+
+
 def _plan(study: "Study", out: pathlib.Path, comm: MPI.Comm) -> dict:
     """``{case name: state}`` read on rank 0 and broadcast (every rank runs the same cases)."""
     states = None
@@ -352,11 +358,11 @@ def run_study(study: Study, out, comm: MPI.Comm, runner: CaseRunner, *, quiet: b
             if i % n_groups != group:
                 continue
             case_dir = out / "cases" / case.name
-            if sub.rank == 0 and case_dir.exists():
+            if sub.rank == 0 and case_dir.exists() and not (states[case.name] == "new" and has_checkpoint(case_dir)):
                 shutil.rmtree(case_dir)  # half-written by a killed run: start it again
             sub.barrier()
             if sub.rank == 0:
-                case_dir.mkdir(parents=True)
+                case_dir.mkdir(parents=True, exist_ok=True)
             sub.barrier()
             t0 = time.perf_counter()
             try:

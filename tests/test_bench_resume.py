@@ -421,6 +421,7 @@ def test_held_run_logs_a_line_per_step_with_progress(benchmarks, monkeypatch, ca
 
     class Rolling:
         steps, newton_iterations, cuts, n_dofs, position, x_start = [], 0, 0, 10, 0.0, 0.0
+        comm = protocols.MPI.COMM_WORLD
 
         def __init__(self, *args, **kwargs):
             pass

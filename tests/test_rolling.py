@@ -81,13 +81,13 @@ def test_frictionless_rolling_run_directory(comm, tmp_mpi_path):
     comm.barrier()
 
 
-def _hexahedral_scene(across=None):
-    """Frictionless clay rolled 0.1 d; ``across``: elements across the wheel at 4 per d, None: the
-    ``standard`` preset's defaults."""
+def _hexahedral_scene(across=None, travel=0.1 * D):
+    """Frictionless clay rolled ``travel`` (m); ``across``: elements across the wheel at 4 per d,
+    None: the ``standard`` preset's defaults."""
     model = {} if across is None else {"refinement": 4, "cell_type": "hexahedra", "elements_across_wheel": across}
     data = {"wheel": {"diameter": D, "width": B, "friction": 0.0},
             "soil": {"gamma": GAMMA, "layers": [{"model": "von-mises", "E": 40e6, "nu": 0.35, "c_dp": 200e3}]},
-            "loading": {"protocol": "rolling-continuous", "max_sinkage": 0.02 * D, "travel": 0.1 * D},
+            "loading": {"protocol": "rolling-continuous", "max_sinkage": 0.02 * D, "travel": travel},
             "model": model}
     return parse_scene(data)
 
@@ -602,6 +602,35 @@ def test_failed_lift_off_keeps_the_rolling_result(comm, tmp_mpi_path, monkeypatc
     assert summary["sinkage_m"] > 0
 
 
+def test_continued_constant_load_run_skips_the_press(comm, tmp_mpi_path, monkeypatch):
+    """A constant-load run continued from a checkpoint does not press again: it hands the rest of
+    the travel to the steady-state search over the restored steps (``resumed``)."""
+    from rollsim.solver.drivers.base import RollingRun
+    from rollsim.solver.rolling import SteadyState
+    calls = {}
+
+    def continue_roll(self):
+        self.roll.contact.centre_n.value[0] = self.roll.x_start + 0.1 * D
+        self.roll.steps.append(RollingStep(1, 0.1 * D, 0.01, 1e5, 1e4, 0.0, 0.0, 0.0, 0.1, 0.0, 3, 3, 0, 0, 1.0))
+        return True
+
+    def roll_at_load(self, load, travel, **kw):
+        calls.update(travel=travel, resumed=kw["resumed"])
+        return SteadyState(True, 0.1 * D, self.sinkage, load, 0.0, self.contact.h, 0.0, 0.0)
+
+    def press_to_load(self, *args, **kw):
+        calls["press"] = True
+
+    monkeypatch.setattr(RollingRun, "continue_roll", continue_roll)
+    monkeypatch.setattr(WheelRolling, "roll_at_load", roll_at_load)
+    monkeypatch.setattr(WheelRolling, "press_to_load", press_to_load)
+    monkeypatch.setattr(WheelRolling, "lift", lambda self, on_step=None: None)
+    scene = _constant_load_scene()
+    summary = run_scene(scene, tmp_mpi_path, comm, progress=False, write_fields=False, block=CL_BLOCK)
+    assert summary["status"] == "ok", summary["reason"]
+    assert calls == {"travel": pytest.approx(scene.loading.travel - 0.1 * D), "resumed": True}
+
+
 @pytest.mark.serial
 @pytest.mark.slow
 def test_constant_load_rolling(tmp_mpi_path):
@@ -688,6 +717,78 @@ def test_interrupted_run_keeps_history_and_summary(comm, tmp_mpi_path, monkeypat
         rows = list(csv.DictReader((tmp_mpi_path / "history.csv").open()))
         assert len(rows) == s["steps"]
     assert signal.getsignal(signal.SIGINT) is before      # handlers restored
+    comm.barrier()
+
+
+def test_killed_rolling_run_continues_from_its_checkpoint(comm, tmp_mpi_path, monkeypatch):
+    """A continuous roll on hexahedra (equal travel steps) with a checkpoint every second rolled
+    step: killed hard after its third rolled step, run again it continues from the second; stopped
+    by SIGINT there after, it writes the checkpoint of its last step ("interrupted", the reason
+    says how to continue); run again it ends as the uninterrupted run (history Q_V to 1e-8, same
+    steps and Newton iterations), its field series in three files, its checkpoint removed.  A
+    checkpoint of another scene is removed, and that run starts from the beginning."""
+    import gc
+    import os
+    import shutil
+    import signal
+
+    from rollsim.files import complete_directory
+    from rollsim.solver import rundir
+    from rollsim.solver.drivers.base import RollingRun
+    scene = _hexahedral_scene(8, travel=0.4 * D)
+    kw = {"progress": False, "block": BLOCK, "initial_sinkage": 0.01 * D, "checkpoint_every": 2}
+    whole = run_scene(scene, tmp_mpi_path / "whole", comm, **kw)
+    assert whole["status"] == "ok" and "continued" not in whole
+    out = tmp_mpi_path / "run"
+    update, rolled = rundir.TravelProgress.update, []
+
+    def stopped_after_three(self, st, stop):
+        update(self, st)
+        rolled.extend([st.travel] * (st.travel > 0))
+        if len(rolled) == 3:
+            stop()
+
+    def kill():
+        raise KeyboardInterrupt             # every rank at the same step: a job killed hard
+
+    def sigint():
+        if comm.rank == 0:
+            os.kill(os.getpid(), signal.SIGINT)
+
+    monkeypatch.setattr(rundir.TravelProgress, "update", lambda self, st: stopped_after_three(self, st, kill))
+    with pytest.raises(KeyboardInterrupt):
+        run_scene(scene, out, comm, **kw)
+    gc.collect()                            # the killed run's field file closes (collective) on every rank here
+    comm.barrier()
+    before_kill = rolled[:]
+    rolled.clear()
+    monkeypatch.setattr(rundir.TravelProgress, "update", lambda self, st: stopped_after_three(self, st, sigint))
+    stopped = run_scene(scene, out, comm, **kw)
+    assert stopped["status"] == "interrupted" and "run it again to continue" in stopped["reason"]
+    assert stopped["continued"][0]["from_travel_m"] == pytest.approx(before_kill[1])     # the second rolled step
+    if comm.rank == 0:
+        shutil.copytree(out, tmp_mpi_path / "other")
+    comm.barrier()
+    monkeypatch.setattr(rundir.TravelProgress, "update", update)
+    done = run_scene(scene, out, comm, **kw)
+    assert done["status"] == "ok", done.get("reason")
+    first, second = done["continued"]
+    assert second["from_step"] == stopped["steps"] and second["from_travel_m"] > first["from_travel_m"]
+    assert (done["steps"], done["newton_iterations"]) == (whole["steps"], whole["newton_iterations"])
+    assert done["files"]["fields"] == ["fields/fields.xdmf", f"fields/fields_from_frame_{first['from_step'] + 1}.xdmf",
+                                       f"fields/fields_from_frame_{second['from_step'] + 1}.xdmf",
+                                       "fields/deformed.xdmf"]
+    if comm.rank == 0:
+        a, b = (list(csv.DictReader((p / "history.csv").open())) for p in (tmp_mpi_path / "whole", out))
+        assert [r["step"] for r in a] == [r["step"] for r in b]
+        np.testing.assert_allclose([float(r["QV_N"]) for r in b], [float(r["QV_N"]) for r in a], rtol=1e-8)
+        assert all((out / "fields" / name.split("/")[1]).exists() for name in done["files"]["fields"])
+        assert complete_directory(out / "checkpoint") is None
+    other = RollingRun(_hexahedral_scene(8, travel=0.5 * D), tmp_mpi_path / "other", comm, block=BLOCK,
+                       moment_rtol=2e-3, progress=False, write_fields=False)
+    assert other.saved is None and not other.continue_roll()
+    if comm.rank == 0:
+        assert complete_directory(tmp_mpi_path / "other" / "checkpoint") is None
     comm.barrier()
 
 

@@ -184,3 +184,41 @@ def test_example_scene_loads(comm):
     import pathlib
     scene = load_scene(pathlib.Path(__file__).parents[1] / "examples" / "indentation_mndot.toml")
     assert layer_material(scene.soil.layers[0]).c_dp == pytest.approx(194.6e3)
+
+
+@pytest.mark.parametrize("example, options, field", [
+    ("indentation_mndot.toml", ["--restart"], "--restart"),
+    ("indentation_mndot.toml", ["--checkpoint-every", "5"], "--checkpoint-every"),
+    ("rolling_continuous.toml", ["--checkpoint-every", "-1"], "--checkpoint-every"),
+])
+def test_checkpoint_options_are_refused_where_they_do_not_apply(comm, tmp_mpi_path, capsys, example, options,
+                                                                field):
+    """Checkpoints are a rigid wheel's rolling: elsewhere, or a negative interval, exit 2 naming
+    the option, nothing written."""
+    import pathlib
+
+    from rollsim.cli import main
+    scene = pathlib.Path(__file__).parent.parent / "examples" / example
+    assert main(["run", str(scene), "--out", str(tmp_mpi_path / "run"), *options]) == 2
+    assert comm.rank != 0 or field in capsys.readouterr().err
+    assert not (tmp_mpi_path / "run").exists()
+
+
+def test_time_left_follows_the_recent_pace(monkeypatch):
+    """The progress line's time left: the pace of the last ten steps (a roll that slows down as it
+    plastifies is not promised the pace of its elastic start), from the travel a continued run
+    starts at; none before the wheel has moved."""
+    from rollsim.solver import rundir
+    now = [100.0]
+    monkeypatch.setattr(rundir.time, "perf_counter", lambda: now[0])
+    bar = rundir.TravelProgress(travel=5.0, d=1.0, start=1.0)
+    assert bar.time_left(1.0) is None
+    x = 1.0
+    for pace in [1.0] * 10 + [10.0] * 10:         # s per 0.1 m
+        now[0] += pace
+        x += 0.1
+        left = bar.time_left(x)
+    assert left == pytest.approx(10.0 * (5.0 - x) / 0.1)
+    fresh = rundir.TravelProgress(travel=5.0, d=1.0, start=4.0)
+    now[0] += 30.0
+    assert fresh.time_left(4.5) == pytest.approx(30.0)

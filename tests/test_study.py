@@ -2,6 +2,7 @@
 import json
 import os
 import pathlib
+import shutil
 import textwrap
 import uuid
 
@@ -119,24 +120,35 @@ def test_resume_after_kill_and_failure_isolation(tmp_mpi_path):
 
 def test_interrupted_case_stops_the_study_and_is_rerun(tmp_mpi_path):
     """A case whose run was stopped by a signal (status "interrupted") is not recorded as done: its
-    group stops there, and the next run of the study does that case and the rest."""
+    group stops there, and the next run of the study does that case and the rest.  The run
+    directory of a stopped case that left a rolling checkpoint is kept for its run to continue."""
     comm = MPI.COMM_WORLD
     study, out, log_dir = _grid_study(tmp_mpi_path, comm)
     stopped = study.cases[2].name
     base = counting_runner(log_dir)
+    kept = []
 
     def interrupted_once(case, case_dir, sub):
         if case.name == stopped:
+            if sub.rank == 0:
+                (case_dir / "run" / "checkpoint").mkdir(parents=True)
             return {"status": "interrupted", "reason": "interrupted by SIGINT"}
+        return base(case, case_dir, sub)
+
+    def continued(case, case_dir, sub):
+        if case.name == stopped:
+            kept.append((case_dir / "run" / "checkpoint").is_dir())
         return base(case, case_dir, sub)
 
     rows = st.run_study(study, out, comm, interrupted_once, quiet=True)
     assert next(r for r in rows if r["case"] == stopped)["status"] == "not run"
     assert not (out / "cases" / stopped / "summary.json").exists()
     assert runs(log_dir, study.cases[-1].name) == 0 or comm.size > 1   # one group: nothing after it ran
-    rows = st.run_study(study, out, comm, base, quiet=True)
+    rows = st.run_study(study, out, comm, continued, quiet=True)
     assert all(r["status"] == "ok" for r in rows)
     assert all(runs(log_dir, c.name) == 1 for c in study.cases)
+    everywhere = comm.allreduce(kept, op=MPI.SUM)          # the ranks of the group that ran it
+    assert everywhere and all(everywhere)
 
 
 def test_atomic_write_keeps_old_file_on_crash(tmp_path, monkeypatch):
@@ -150,6 +162,55 @@ def test_atomic_write_keeps_old_file_on_crash(tmp_path, monkeypatch):
     with pytest.raises(KeyboardInterrupt):
         st.atomic_write_text(path, "new\n")
     assert path.read_text() == "old\n"
+
+
+@pytest.mark.serial
+def test_replaced_directory_survives_a_kill_between_its_renames(tmp_path, monkeypatch):
+    """A checkpoint directory replaced by a new version: killed before or between its two renames,
+    the last complete version is the old one, never a mix or none; the next replacement after
+    such a kill ends with the new version."""
+    from rollsim import files
+    path = tmp_path / "checkpoint"
+
+    def write(version: str) -> None:
+        stage = files.staging_directory(path)
+        stage.mkdir()
+        for name in ("state", "meta"):
+            (stage / name).write_text(version)
+
+    def read() -> set:
+        found = files.complete_directory(path)
+        return {p.read_text() for p in found.iterdir()} if found else set()
+
+    assert files.complete_directory(path) is None
+    write("1")
+    files.replace_directory(path)
+    replace = os.replace
+    for kill_after in range(2):
+        calls = []
+
+        def counted(src, dst):
+            if len(calls) == kill_after:
+                raise KeyboardInterrupt
+            calls.append(dst)
+            replace(src, dst)
+
+        shutil.rmtree(files.staging_directory(path), ignore_errors=True)
+        write("2")
+        monkeypatch.setattr(os, "replace", counted)
+        with pytest.raises(KeyboardInterrupt):
+            files.replace_directory(path)
+        monkeypatch.setattr(os, "replace", replace)
+        assert read() == {"1"}
+        shutil.rmtree(files.staging_directory(path), ignore_errors=True)
+        write("2")
+        files.replace_directory(path)
+        assert read() == {"2"}
+        shutil.rmtree(files.staging_directory(path), ignore_errors=True)
+        write("1")
+        files.replace_directory(path)
+    files.remove_directory(path)
+    assert not list(tmp_path.iterdir())
 
 
 @pytest.mark.parametrize("ranks_per_case", [1, 2])

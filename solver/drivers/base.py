@@ -2,6 +2,7 @@
 protected run, the fields, the summary and the run directory (``rollsim.solver.rundir``)."""
 from __future__ import annotations
 
+import json
 import time
 import traceback
 from typing import Callable
@@ -10,20 +11,26 @@ import numpy as np
 from mpi4py import MPI
 
 from rollsim import compat
-from rollsim.files import atomic_write_text
+from rollsim.files import atomic_write_text, complete_directory, remove_directory
 from rollsim.log import get_logger
+from rollsim.mpi import root_block
 
+from ..checkpoint import staged
 from ..regularisation import regularisation_summary
-from ..rundir import finish_run, history_row, make_run_directory, write_history
+from ..rundir import finish_run, history_row, json_default, make_run_directory, write_history
 from ..scene_model import layer_materials, relaxation_hint, solver_options, wheel_geometry
 
-__all__ = ["ProtocolRun", "run_protected", "heave_warnings", "rut_depth", "REPORT_S_OVER_D", "HEAVE_TOLERANCE"]
+__all__ = ["ProtocolRun", "RollingRun", "run_protected", "heave_warnings", "rut_depth", "REPORT_S_OVER_D",
+           "HEAVE_TOLERANCE", "CHECKPOINT_EVERY"]
 
 #: s/d values at which an indentation's Q_V is always computed (step boundaries; a pneumatic tire
 #: aims at them) and reported in summary.json
 REPORT_S_OVER_D = (0.01, 0.02, 0.03, 0.05, 0.08, 0.1)
 
 log = get_logger("run")
+
+#: rolled steps between two checkpoints of a rolling run (``checkpoint/`` in the run directory)
+CHECKPOINT_EVERY = 10
 
 #: heave (in d) beyond which a loaded wheel riding above, or a rut rising above, the undisturbed
 #: surface is reported by :func:`heave_warnings`
@@ -132,6 +139,10 @@ class ProtocolRun:
         #: keywords shared by the wheel classes: what this run applies
         self.solver_options = solver_options(scene, penalty=penalty, petsc_options=petsc_options)
         self.rows: list[dict] = []
+        #: the field time series under ``fields/`` (a continued run adds one)
+        self.field_series = ["fields.xdmf"]
+        #: Newton iterations and linear solves of the runs this one continues
+        self.before = {"newton_iterations": 0, "linear_solves": 0}
         #: largest out-of-balance force left by an accepted Newton plateau, over that step's Q_V
         self.plateau_share = 0.0
         self.tagged = self.wheel_run = self.writer = None
@@ -141,7 +152,8 @@ class ProtocolRun:
         self.tagged, self.wheel_run = tagged, wheel_run
         if self.write_fields:
             from ..fields import FieldWriter
-            self.writer = FieldWriter(wheel_run.problem, self.out / "fields", cell_tags=tagged.cell_tags)
+            self.writer = FieldWriter(wheel_run.problem, self.out / "fields", cell_tags=tagged.cell_tags,
+                                      series=self.field_series[-1])
 
     def announce(self, loading: str = "") -> None:
         """The run's first log line: protocol, wheel, soil, mesh, then the protocol's ``loading``."""
@@ -242,14 +254,16 @@ class ProtocolRun:
         return {"status": status, "reason": reason, "protocol": self.scene.loading.protocol,
                 "scene": self.scene.to_dict(), "wall_time_s": wall, "ranks": self.comm.size, "dofs": run.n_dofs,
                 "cells": self.tagged.stats.cells, "steps": len(self.rows),
-                "newton_iterations": run.newton_iterations,
-                "linear_solves": int(run.problem.timings["linear_solves"]), "step_cuts": run.cuts,
+                "newton_iterations": run.newton_iterations + self.before["newton_iterations"],
+                "linear_solves": int(run.problem.timings["linear_solves"]) + self.before["linear_solves"],
+                "step_cuts": run.cuts,
                 "newton_plateaus": {**run.problem.plateaus, "max_residual_over_QV": self.plateau_share},
                 "sinkage_m": last.get("sinkage_m", 0.0), "QV_N": last.get("QV_N", 0.0),
                 "QH_N": last.get("QH_N", 0.0), "max_QV_N": max((r["QV_N"] for r in self.rows), default=0.0),
                 **results, "model": self.model_summary(),
                 "files": {"history": "history.csv", "plot": "force_sinkage.png",
-                          "fields": ["fields/fields.xdmf", "fields/deformed.xdmf"] if self.write_fields else []}}
+                          "fields": ([f"fields/{name}" for name in self.field_series] + ["fields/deformed.xdmf"]
+                                     if self.write_fields else [])}}
 
     def measure_rut(self, profile: Callable[[], tuple], **window) -> dict | None:
         """:func:`rut_depth` of the surface ``profile()`` (after the lift-off), the profile written
@@ -319,35 +333,144 @@ class RollingRun(ProtocolRun):
     """A :class:`ProtocolRun` of a towed wheel on the half rolling block (``block``: keywords of
     :func:`~rollsim.solver.scene_model.rolling_mesh`, lengths in d): :attr:`roll` is the
     :class:`~rollsim.solver.rolling.WheelRolling`, :meth:`on_step` records a step and prints the
-    travel progress."""
+    travel progress.
 
-    def __init__(self, scene, out_dir, comm: MPI.Comm, *, block: dict, moment_rtol: float, **kw):
+    Every ``checkpoint_every`` rolled steps (0: never) the run's state goes to ``checkpoint/`` in
+    the run directory (the roll's :meth:`~rollsim.solver.rolling.WheelRolling.write_checkpoint`
+    and ``run.json``: the history rows, the field frames, the wall time and counts so far, and
+    what set the path: the scene echo, ``block``, ``moment_rtol`` and the driver's ``path``
+    keywords).  A run started on a directory with a checkpoint of the same path continues from it
+    (:meth:`continue_roll`) unless ``restart``; one of another path is removed and the run starts
+    over.  The checkpoint is removed when the run ends ``ok``, and no longer written once a roll
+    has started over relaxed (its resumption would relax from the checkpoint on, not from the
+    start of the roll)."""
+
+    def __init__(self, scene, out_dir, comm: MPI.Comm, *, block: dict, moment_rtol: float, path: dict | None = None,
+                 checkpoint_every: int = CHECKPOINT_EVERY, restart: bool = False, **kw):
         from ..rolling import WheelRolling
         from ..rundir import TravelProgress
         from ..scene_model import rolling_mesh
         super().__init__(scene, out_dir, comm, **kw)
+        if checkpoint_every < 0:
+            raise ValueError(f"checkpoint_every must be >= 0, got {checkpoint_every}")
+        self.checkpoint, self.checkpoint_every = self.out / "checkpoint", int(checkpoint_every)
+        self.identity = json.loads(json.dumps({"scene": scene.to_dict(), "block": block, "moment_rtol": moment_rtol,
+                                               **(path or {})}, default=json_default))
+        #: run.json of the checkpoint this run continues (None: from the start)
+        self.saved = self._saved_run(restart)
+        self.continued: list[dict] = self.saved["continued"] if self.saved else []
+        if self.saved:
+            self.field_series = self.saved["field_series"] + [f"fields_from_frame_{self.saved['frames'] + 1}.xdmf"]
         tagged = rolling_mesh(scene, comm, **block)
         self.roll = WheelRolling(tagged, self.wheel, self.soil.by_layer, moment_rtol=moment_rtol,
                                  **self.solver_options)
         self.attach(tagged, self.roll)
-        self.bar = TravelProgress(scene.loading.travel, self.d, enabled=self.progress and self.root)
+        self.bar = TravelProgress(scene.loading.travel, self.d, enabled=self.progress and self.root,
+                                  start=self.saved["travel"] if self.saved else 0.0)
         self.frames = 0     # field frames written: their time counts on when a roll starts over
+        self._rolled_last = False       # the last converged step was a rolled one
+
+    def _saved_run(self, restart: bool) -> dict | None:
+        """``run.json`` of the last complete checkpoint if this run continues it (read on rank 0);
+        a checkpoint of another path, unreadable, or set aside by ``restart`` is removed."""
+        meta = None
+        if self.root:
+            found = complete_directory(self.checkpoint)
+            why = "a restart was asked for" if restart else None
+            if found is not None and why is None:
+                try:
+                    meta = json.loads((found / "run.json").read_text())
+                    if meta["identity"] != self.identity:
+                        why = "written for another scene or other run options"
+                    meta["directory"] = str(found)
+                except (OSError, ValueError, KeyError, TypeError) as err:
+                    why = f"unreadable: {err}"
+            if found is not None and why:
+                meta = None
+                log.warning("%s not continued (%s): the run starts from the beginning", self.checkpoint, why)
+            if meta is None:
+                remove_directory(self.checkpoint)
+        return self.comm.bcast(meta, root=0)
+
+    def continue_roll(self) -> bool:
+        """After the gravity step: continue from the checkpoint found at the start, if any (the
+        roll's state, the history rows and field frames up to it, the wall time and counts before
+        it); True when continued.  The rows and frames a run wrote after its last checkpoint are
+        dropped from history.csv and stay in the earlier field series."""
+        meta = self.saved
+        if meta is None:
+            return False
+        roll = self.roll
+        roll.read_checkpoint(meta["directory"])
+        # this run's gravity step is counted again by the totals
+        self.before = {"newton_iterations": meta["newton_iterations"] - roll.newton_iterations,
+                       "linear_solves": meta["linear_solves"] - int(roll.problem.timings["linear_solves"])}
+        self.rows[:] = meta["rows"]
+        self.frames, self.t_start = meta["frames"], self.t_start - meta["wall_time_s"]
+        self.plateau_share = max(self.plateau_share, meta["plateau_share"])
+        self.continued.append({"from_step": len(self.rows), "from_travel_m": roll.position - roll.x_start})
+        write_history(self.out, self.rows, self.comm)
+        if self.progress and self.root:
+            log.info("continuing from %s at travel %.4g m (step %d, %.1f min of wall time before)", self.checkpoint,
+                     roll.position - roll.x_start, len(self.rows), meta["wall_time_s"] / 60)
+        return True
+
+    def write_checkpoint(self) -> None:
+        """The state after the last converged step in ``checkpoint/`` (collective), written whole
+        beside it and then put in its place (:func:`~rollsim.solver.checkpoint.staged`)."""
+        roll = self.roll
+        with staged(self.checkpoint, self.comm) as stage:
+            roll.write_checkpoint(stage)
+            with root_block(self.comm) as on_root:
+                if on_root:
+                    meta = {"identity": self.identity, "travel": roll.position - roll.x_start, "rows": self.rows,
+                            "frames": self.frames, "field_series": self.field_series, "continued": self.continued,
+                            "wall_time_s": time.perf_counter() - self.t_start, "plateau_share": self.plateau_share,
+                            "newton_iterations": roll.newton_iterations + self.before["newton_iterations"],
+                            "linear_solves": int(roll.problem.timings["linear_solves"]) + self.before["linear_solves"]}
+                    atomic_write_text(stage / "run.json", json.dumps(meta, default=json_default))
 
     def travel_relaxation(self) -> tuple[float, list[tuple[float, float]]]:
         return self.roll.travel_relaxation_fallback, self.roll.relaxed_travel
 
     def on_step(self, st) -> None:
-        """A converged ``RollingStep``: history row, fields (time = frame number), progress."""
+        """A converged ``RollingStep``: history row, fields (time = frame number), progress, and
+        every :attr:`checkpoint_every` rolled steps the checkpoint."""
         self.frames += 1
         self.record(st, st.travel, float(self.frames))
         self.bar.update(st)
+        self._rolled_last = self.roll.rolling
+        every = self.checkpoint_every
+        if every and self._rolled_last and sum(r["travel_m"] > 0 for r in self.rows) % every == 0:
+            self.write_checkpoint()
 
     def on_start_over(self, dropped: int) -> None:
         """A roll that starts over relaxed: its ``dropped`` steps leave history.csv (the field
-        frames written for them stay, earlier in time)."""
+        frames written for them stay, earlier in time); checkpoints stop."""
         if dropped:
             del self.rows[-dropped:]
         write_history(self.out, self.rows, self.comm)
+        if self.checkpoint_every and self.root:
+            log.info("no checkpoints after the roll started over relaxed: a killed run starts from the beginning")
+        self.checkpoint_every = 0
+        if self.root:
+            remove_directory(self.checkpoint)
+        self.comm.barrier()
+
+    def finish(self, summary: dict, diagnostics: dict) -> dict:
+        """:meth:`ProtocolRun.finish`; a run interrupted while rolling writes its last converged
+        state to the checkpoint, a finished run removes it (a failed run keeps it: started again
+        it fails again within minutes, or continues with other PETSc options)."""
+        if self.continued:
+            summary["continued"] = self.continued
+        if summary["status"] == "interrupted" and self._rolled_last and self.checkpoint_every:
+            self.write_checkpoint()
+            summary["files"]["checkpoint"] = "checkpoint"
+            summary["reason"] += (f"; run it again to continue from the checkpoint at travel "
+                                  f"{self.roll.position - self.roll.x_start:.4g} m")
+        elif summary["status"] == "ok" and self.root:
+            remove_directory(self.checkpoint)
+        return super().finish(summary, diagnostics)
 
     def state(self) -> dict:
         """Diagnostics of the last converged state."""

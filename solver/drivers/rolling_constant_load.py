@@ -10,7 +10,7 @@ from mpi4py import MPI
 from rollsim.log import get_logger
 
 from ..rolling import STEADY_MIN_TRAVEL, SteadyState, WheelRolling
-from .base import HEAVE_TOLERANCE, RollingRun, heave_warnings, rut_depth
+from .base import CHECKPOINT_EVERY, HEAVE_TOLERANCE, RollingRun, heave_warnings, rut_depth
 from .pneumatic import run_pneumatic_rolling
 
 __all__ = ["run_constant_load", "measure_rut", "heave_warnings", "STIFF_LENGTH", "HEAVE_TOLERANCE"]
@@ -37,15 +37,19 @@ def _rut_window(roll: WheelRolling, steady, x_soft, contact_length: float) -> di
 def run_constant_load(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_options: dict | None = None,
                       write_fields: bool = True, penalty: float | None = None, block: dict | None = None,
                       moment_rtol: float = 2e-3, steady_rtol: float = 0.02, steady_qh_rtol: float = 0.05,
-                      min_window_elements: float = 3.0, steady_min_travel: float | None = None) -> dict:
+                      min_window_elements: float = 3.0, steady_min_travel: float | None = None,
+                      checkpoint_every: int = CHECKPOINT_EVERY, restart: bool = False) -> dict:
     """Constant-load rolling of ``scene``: gravity, ``loading.load`` on the stiff start zone
     (``STIFF_LENGTH`` d, elastic, 10x the top layer's modulus), then rolling at that load until
     steady (:meth:`WheelRolling.roll_at_load`: ``steady_rtol`` / ``steady_qh_rtol``, looked for after
     ``steady_min_travel`` m on the test soil, default ``STEADY_MIN_TRAVEL`` d) or ``loading.travel``.
     The summary reports the steady sinkage and ``Q_H``, the rut depth (mean settlement of the wheel
     path rolled in steady state, after the lift-off) and the rebound (sinkage - rut depth);
-    ``rut_profile.csv`` holds the profile.  ``block``: keywords of ``rolling_mesh``.  A pneumatic
-    wheel runs :func:`~rollsim.solver.drivers.pneumatic.run_pneumatic_rolling` (no ``block``)."""
+    ``rut_profile.csv`` holds the profile.  ``block``: keywords of ``rolling_mesh``.  A checkpoint
+    every ``checkpoint_every`` rolled steps; a run directory holding one of the same run is
+    continued unless ``restart`` (:class:`~rollsim.solver.drivers.base.RollingRun`).  A pneumatic
+    wheel runs :func:`~rollsim.solver.drivers.pneumatic.run_pneumatic_rolling` (no ``block``, no
+    checkpoints)."""
     if scene.wheel.type == "pneumatic":
         return run_pneumatic_rolling(scene, out_dir, comm, progress=progress, petsc_options=petsc_options,
                                      write_fields=write_fields, penalty=penalty, steady_rtol=steady_rtol,
@@ -55,20 +59,26 @@ def run_constant_load(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, 
     x_soft = block["stiff_length"] * d if block["stiff_length"] else None
     min_travel = STEADY_MIN_TRAVEL * d if steady_min_travel is None else float(steady_min_travel)
     run = RollingRun(scene, out_dir, comm, block=block, moment_rtol=moment_rtol, progress=progress,
-                     write_fields=write_fields, petsc_options=petsc_options, penalty=penalty)
+                     write_fields=write_fields, petsc_options=petsc_options, penalty=penalty,
+                     path={"steady_rtol": steady_rtol, "steady_qh_rtol": steady_qh_rtol, "penalty": penalty,
+                           "min_window_elements": min_window_elements, "steady_min_travel": min_travel,
+                           "write_fields": write_fields},
+                     checkpoint_every=checkpoint_every, restart=restart)
     roll = run.roll
     outcome = {"steady": None, "contact_length": 0.0, "lifted": False, "lift_failure": None}
 
     def rolling():
         run.announce(f"travel {travel:g} m, Q_V = {load / 1e3:g} kN")
         roll.gravity_step()
-        res = roll.press_to_load(load, 0.25 * d, on_step=run.on_step)
-        if res.status != "ok":
-            return f"pressing the wheel on the stiff start zone: {res.status}: {res.reason}"
+        continued = run.continue_roll()
+        if not continued:
+            res = roll.press_to_load(load, 0.25 * d, on_step=run.on_step)
+            if res.status != "ok":
+                return f"pressing the wheel on the stiff start zone: {res.status}: {res.reason}"
         steady = outcome["steady"] = roll.roll_at_load(
-            load, travel, x_soft=x_soft, on_step=run.on_step, steady_rtol=steady_rtol,
-            steady_qh_rtol=steady_qh_rtol, min_window_elements=min_window_elements, min_travel=min_travel,
-            on_start_over=run.on_start_over)
+            load, travel - (roll.position - roll.x_start), x_soft=x_soft, on_step=run.on_step,
+            steady_rtol=steady_rtol, steady_qh_rtol=steady_qh_rtol, min_window_elements=min_window_elements,
+            min_travel=min_travel, on_start_over=run.on_start_over, resumed=continued)
         if not steady.reached:
             log.warning("no steady state within the travel of %g m: the values are those of the last "
                         "step (a longer travel or a coarser steady tolerance may help)", travel)

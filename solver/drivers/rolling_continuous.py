@@ -8,7 +8,7 @@ from mpi4py import MPI
 
 from rollsim.log import get_logger
 
-from .base import RollingRun
+from .base import CHECKPOINT_EVERY, RollingRun
 
 __all__ = ["run_continuous", "ramp_advice", "VERIFIED_RAMP_RATE"]
 
@@ -34,16 +34,21 @@ def ramp_advice(max_sinkage: float, initial_sinkage: float, ramp_length: float) 
 
 def run_continuous(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_options: dict | None = None,
                    write_fields: bool = True, penalty: float | None = None, initial_sinkage: float | None = None,
-                   ramp: float | None = None, block: dict | None = None, moment_rtol: float = 2e-3) -> dict:
+                   ramp: float | None = None, block: dict | None = None, moment_rtol: float = 2e-3,
+                   checkpoint_every: int = CHECKPOINT_EVERY, restart: bool = False) -> dict:
     """Continuous rolling of ``scene``: pressed to ``initial_sinkage`` (default 0.005 d), then rolled
     with the sinkage ramped over ``ramp`` m (default: the whole travel).  ``block``: keywords of
-    ``rolling_mesh`` (no stiff start zone by default).  Writes the run directory, returns the summary."""
+    ``rolling_mesh`` (no stiff start zone by default).  A checkpoint every ``checkpoint_every``
+    rolled steps; a run directory holding one of the same run is continued unless ``restart``
+    (:class:`~rollsim.solver.drivers.base.RollingRun`).  Writes the run directory, returns the summary."""
     d, travel, s_max = scene.wheel.diameter, scene.loading.travel, scene.loading.max_sinkage
     s0 = min(0.005 * d if initial_sinkage is None else float(initial_sinkage), s_max)
     ramp_length = travel if ramp is None else ramp
     rate, advice = ramp_advice(s_max, s0, ramp_length)
     run = RollingRun(scene, out_dir, comm, block={"stiff_length": 0.0, **(block or {})}, moment_rtol=moment_rtol,
-                     progress=progress, write_fields=write_fields, petsc_options=petsc_options, penalty=penalty)
+                     progress=progress, write_fields=write_fields, petsc_options=petsc_options, penalty=penalty,
+                     path={"initial_sinkage": s0, "ramp": ramp_length, "penalty": penalty, "write_fields": write_fields},
+                     checkpoint_every=checkpoint_every, restart=restart)
     roll = run.roll
 
     def rolling():
@@ -51,6 +56,12 @@ def run_continuous(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, pet
         roll.gravity_step()
         if advice and run.root:
             log.warning(advice)
+        if run.continue_roll():         # the rest of the roll and of its ramp
+            done = roll.position - roll.x_start
+            if travel - done > 1e-9 * d:
+                roll.roll(travel - done, s_max, ramp=ramp_length - done if ramp_length > done + 1e-9 * d else None,
+                          on_step=run.on_step, on_start_over=run.on_start_over)
+            return
         roll.press(s0, on_step=run.on_step)
         roll.roll(travel, s_max, ramp=ramp, on_step=run.on_step, on_start_over=run.on_start_over)
 
