@@ -10,8 +10,9 @@
         --linear-solver direct iterative                                      # cost of one solve
 
 ``--volumetric-strain cell-average``: B-bar (docs, "Volumetric locking").  ``--checkpoint DIR``:
-the state is written at every reading stop, and the same command started again continues from
-the last one (the accurate preset's hours-long runs over several sittings), on any number of ranks.
+the state is written whole at every reading stop (beside the previous one, then swapped in), and
+the same command started again continues from the last complete one (the accurate preset's
+hours-long runs over several sittings), on any number of ranks.
 
 Prints Q_V at s/d = 0.02, 0.05, 0.1, the bearing-capacity model (indentation, D = s) with the
 case's compression-matched (c, phi), steps, Newton iterations, cuts and wall time, and the
@@ -32,9 +33,11 @@ from mpi4py import MPI
 from _bench import add_volumetric_strain
 
 from rollsim.geometry import CylinderWheel, MeshOptions, build_soil_block, indentation_block
+from rollsim.files import complete_directory
 from rollsim.geometry.mesh import ACCURACY_REFINEMENT
 from rollsim.solver.options import DEFAULT_VOLUMETRIC_STRAIN, LINEAR_SOLVERS
 from rollsim.solver import DruckerPrager, SolverDivergedError, StepControl, VonMises
+from rollsim.solver.checkpoint import staged
 from rollsim.solver.indentation import WheelIndentation
 from rollsim.studies.bearing_capacity import Options, Soil, Wheel, wheel_forces
 
@@ -73,8 +76,9 @@ def run(comm, accuracy, mat, d, b, gamma, mu, s_end=0.1, linear_solver="auto", v
     ind.gravity_step()
     status, its_before, steps_before = "ok", 0, 0
     stops = [r * d for r in STOPS if r <= s_end]
-    if checkpoint is not None and (pathlib.Path(checkpoint) / "steps.json").exists():
-        its_before, steps_before = ind.read_checkpoint(checkpoint), len(ind.steps)
+    found = None if checkpoint is None else comm.bcast(complete_directory(checkpoint) if comm.rank == 0 else None)
+    if found is not None:
+        its_before, steps_before = ind.read_checkpoint(found), len(ind.steps)
         if comm.rank == 0:
             print(f"  {accuracy}: continuing from {checkpoint} at s/d = {ind.sinkage / d:.4f} "
                   f"({len(ind.steps)} steps, {its_before} Newton iterations)", flush=True)
@@ -84,7 +88,8 @@ def run(comm, accuracy, mat, d, b, gamma, mu, s_end=0.1, linear_solver="auto", v
             print(f"  {accuracy} s/d={st.sinkage / d:.4f} QV={st.QV / 1e3:.2f} kN "
                   f"its={st.iterations} t={time.perf_counter() - t0:.0f} s", flush=True)
         if checkpoint is not None and any(abs(st.sinkage - s) < 1e-9 * d for s in stops):
-            ind.write_checkpoint(checkpoint)
+            with staged(checkpoint, comm) as stage:
+                ind.write_checkpoint(stage)
 
     try:
         control, ends = None, stops

@@ -477,3 +477,34 @@ def test_held_run_continues_from_its_checkpoint(benchmarks, tmp_mpi_path, monkey
     a, b = ([r["hold"] for r in json.loads(p.read_text())["results"]][0] for p in (whole, resumed))
     assert a["steps"] == b["steps"] and a["newton_iterations"] == b["newton_iterations"]
     np.testing.assert_allclose(np.array(b["curve"]), np.array(a["curve"]), rtol=1e-8, atol=1e-9)
+
+
+def test_indentation_push_continues_from_its_last_complete_checkpoint(benchmarks, monkeypatch, tmp_mpi_path, comm):
+    """The indentation benchmark writes its checkpoint whole at each reading stop: killed between
+    the two renames that put the next version in place, it continues from the previous one and
+    reaches the uninterrupted push's force."""
+    import bench_indentation
+    from rollsim import files
+    soil = bench_indentation.case_soil(2)[:5]
+    ckpt = tmp_mpi_path / "ckpt"
+    first = bench_indentation.run(comm, "4", *soil, s_end=0.02, checkpoint=ckpt)
+    if comm.rank == 0:
+        files.staging_directory(ckpt).mkdir()
+        replace, calls = files.os.replace, []
+
+        def killed_after_one(src, dst):
+            if calls:
+                raise KeyboardInterrupt
+            calls.append(dst)
+            replace(src, dst)
+
+        monkeypatch.setattr(files.os, "replace", killed_after_one)
+        with pytest.raises(KeyboardInterrupt):
+            files.replace_directory(ckpt)
+        monkeypatch.setattr(files.os, "replace", replace)
+        assert not ckpt.exists()
+    resumed = bench_indentation.run(comm, "4", *soil, s_end=0.03, checkpoint=ckpt)
+    whole = bench_indentation.run(comm, "4", *soil, s_end=0.03)
+    assert resumed["steps_from_checkpoint"] == first["steps"] > 0
+    assert resumed["QV"]["0.02"] == pytest.approx(first["QV"]["0.02"], rel=1e-12)
+    assert resumed["QV"]["0.03"] == pytest.approx(whole["QV"]["0.03"], rel=1e-6)
