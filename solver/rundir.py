@@ -223,10 +223,13 @@ class TravelProgress:
         self.travel, self.d, self.enabled, self.width = travel, d, enabled, width
         self.paces = collections.deque([(time.perf_counter(), start)], maxlen=self.window + 1)
 
-    def time_left(self, x: float) -> float | None:
-        """Seconds left to the end of the travel at the recent pace, after a step that ended at
-        travel ``x`` (m); None before a step has advanced the wheel."""
+    def passed(self, x: float) -> None:
+        """Record that a step ended now at travel ``x`` (m)."""
         self.paces.append((time.perf_counter(), x))
+
+    def time_left(self) -> float | None:
+        """Seconds left to the end of the travel at the pace of the recorded steps; None before a
+        step has advanced the wheel."""
         (t0, x0), (t1, x1) = self.paces[0], self.paces[-1]
         return (t1 - t0) / (x1 - x0) * max(self.travel - x1, 0.0) if x1 > x0 + 1e-12 * self.d else None
 
@@ -236,7 +239,8 @@ class TravelProgress:
             return
         frac = min(max(st.travel / self.travel, 0.0), 1.0)
         filled = int(round(frac * self.width))
-        left = self.time_left(st.travel)
+        self.passed(st.travel)
+        left = self.time_left()
         eta = "" if left is None else f", about {left / 60:.1f} min left"
         log.info("[%s%s] %3.0f%%  x = %.3f m  s = %.2f mm (s/d %.4f)  Q_V = %.2f kN  Q_H = %.2f kN  M = %.2g N m  "
                  "%d its/%d solves%s", "#" * filled, "." * (self.width - filled), 100 * frac, st.travel,

@@ -212,13 +212,17 @@ def test_time_left_follows_the_recent_pace(monkeypatch):
     now = [100.0]
     monkeypatch.setattr(rundir.time, "perf_counter", lambda: now[0])
     bar = rundir.TravelProgress(travel=5.0, d=1.0, start=1.0)
-    assert bar.time_left(1.0) is None
+    assert bar.time_left() is None
+    bar.passed(1.0)
+    assert bar.time_left() is None
     x = 1.0
     for pace in [1.0] * 10 + [10.0] * 10:         # s per 0.1 m
         now[0] += pace
         x += 0.1
-        left = bar.time_left(x)
+        bar.passed(x)
+        left = bar.time_left()
     assert left == pytest.approx(10.0 * (5.0 - x) / 0.1)
     fresh = rundir.TravelProgress(travel=5.0, d=1.0, start=4.0)
     now[0] += 30.0
-    assert fresh.time_left(4.5) == pytest.approx(30.0)
+    fresh.passed(4.5)
+    assert fresh.time_left() == pytest.approx(30.0)
