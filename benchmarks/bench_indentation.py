@@ -32,8 +32,8 @@ from mpi4py import MPI
 
 from _bench import add_volumetric_strain
 
-from rollsim.geometry import CylinderWheel, MeshOptions, build_soil_block, indentation_block
 from rollsim.files import complete_directory
+from rollsim.geometry import CylinderWheel, MeshOptions, build_soil_block, indentation_block
 from rollsim.geometry.mesh import ACCURACY_REFINEMENT
 from rollsim.solver.options import DEFAULT_VOLUMETRIC_STRAIN, LINEAR_SOLVERS
 from rollsim.solver import DruckerPrager, SolverDivergedError, StepControl, VonMises
