@@ -164,6 +164,16 @@ def settled(curve, load: float, from_travel: float) -> dict | None:
             "mean_abs_slope": float(np.abs(slope).mean()), "QH_at_zero_slope": float(np.polyfit(slope, qh, 1)[1])}
 
 
+def _sinkage_at_load(s_fit, slope, s_hold, q_hold, load):
+    """The sinkage (m) at which the steady curve through ``q_hold`` (N) at ``s_hold`` with the
+    ``slope`` (N/m) fitted over the sinkages ``s_fit`` carries ``load``; None where the slope does
+    not grow or the line is read further from ``s_hold`` than the width of ``s_fit``."""
+    if slope <= 0:
+        return None
+    s = s_hold + (load - q_hold) / slope
+    return s if abs(s - s_hold) <= np.ptp(s_fit) else None
+
+
 def continuous(comm, mu, args, s_hold=None):
     """The continuous protocol; with ``s_hold`` (m) the sinkage is ramped to it over ``--ramp`` d
     and then held to the end of ``--travel`` (steady rolling at a fixed sinkage)."""
@@ -199,7 +209,8 @@ def continuous(comm, mu, args, s_hold=None):
             slope = float(np.polyfit(s[late], q[late], 1)[0])
             q_hold = float(q[held].mean())
             out.update(QV_hold=q_hold, QV_hold_std=float(q[held].std()), QH_hold=float(qh[held].mean()),
-                       slope=slope, s_steady=s_hold + (load - q_hold) / slope, hold_steps=int(held.sum()))
+                       slope=slope, s_steady=_sinkage_at_load(s[late], slope, s_hold, q_hold, load),
+                       hold_steps=int(held.sum()))
     above = np.nonzero(q >= load)[0]
     if len(above) and above[0] > 0:
         i = above[0]
@@ -430,6 +441,18 @@ def sinkage_at_load(rows) -> str:
     return _markdown(head, body) if body else ""
 
 
+def _steady_line(hold: dict, cl: dict, load: float) -> str:
+    """Where the steady curve of a held run carries ``load`` (kN), against the constant-load sinkage if run."""
+    if hold.get("s_steady") is None:
+        return (f"the ramp's slope ({hold['slope'] / 1e6:.2f} kN/mm) does not reach {load:g} kN near the held "
+                "sinkage (hold at two sinkages and read --table)")
+    line = (f"steady curve carries {load:g} kN at s = {1e3 * hold['s_steady']:.2f} mm "
+            f"(slope {hold['slope'] / 1e6:.2f} kN/mm)")
+    if cl["status"] != "given":
+        line += f"; constant-load / steady - 1 = {100 * (cl['s_cl'] / hold['s_steady'] - 1):+.1f} %"
+    return line
+
+
 def main(argv=None) -> int:
     p = parser()
     args = p.parse_args(argv)
@@ -484,10 +507,9 @@ def main(argv=None) -> int:
             if co_hold is not None:
                 line += (f"\n          hold at s_cl ({co_hold['status']}): " + (
                     f"Q_V = {co_hold['QV_hold'] / 1e3:.2f} +- {co_hold['QV_hold_std'] / 1e3:.2f} kN (mean +- std of "
-                    f"{co_hold['hold_steps']} steps), Q_H = {co_hold['QH_hold'] / 1e3:.2f} kN; steady curve carries "
-                    f"{args.load:g} kN at s = {1e3 * co_hold['s_steady']:.2f} mm (slope {co_hold['slope'] / 1e6:.2f} "
-                    f"kN/mm); constant-load / steady - 1 = {100 * (cl['s_cl'] / co_hold['s_steady'] - 1):+.1f} %"
-                    if "QV_hold" in co_hold else "too short to read") + f", {co_hold['time_s']:.0f} s")
+                    f"{co_hold['hold_steps']} steps), Q_H = {co_hold['QH_hold'] / 1e3:.2f} kN; " + _steady_line(
+                        co_hold, cl, args.load) if "QV_hold" in co_hold else "too short to read")
+                    + f", {co_hold['time_s']:.0f} s")
             print(line, flush=True)
     if comm.rank == 0 and len(results) > 1 and not args.skip_constant_load:
         base = results[0]["constant_load"].get("s_cl")

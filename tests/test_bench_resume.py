@@ -413,6 +413,17 @@ def test_sinkage_at_load_skips_repeats_and_flat_curves(benchmarks, tmp_path, cap
     assert "not read: Q_V does not grow with s" in at_load[0] and "20.00 / 30.00 mm" in at_load[0]
 
 
+def test_held_run_reads_the_load_only_near_its_ramp(benchmarks):
+    """The sinkage carrying the load, read off a held run's ramp slope, is given only where the
+    slope grows and the line stays within the width of the ramp's sinkages of the held one."""
+    at_load = benchmarks[0].protocols._sinkage_at_load
+    ramp = np.array([0.015, 0.02, 0.025, 0.03])
+    assert at_load(ramp, 2e6, 0.03, 95e3, 100e3) == pytest.approx(0.0325)
+    assert at_load(ramp, 2e6, 0.03, 105e3, 100e3) == pytest.approx(0.0275)
+    assert at_load(ramp, 3e4, 0.06, 125e3, 100e3) is None      # a flat ramp read 0.8 m away
+    assert at_load(ramp, -1e6, 0.03, 95e3, 100e3) is None
+
+
 @pytest.mark.serial
 @pytest.mark.parametrize("progress", [True, False])
 def test_held_run_logs_a_line_per_step_with_progress(benchmarks, monkeypatch, caplog, progress):
