@@ -407,13 +407,17 @@ def hold_table(rows) -> str:
     return _markdown(head, body)
 
 
+READ_MARGIN = 1.1   # how far (a factor) beyond its two held points a power law is read
+
+
 def sinkage_at_load(rows) -> str:
     """Markdown table of the steady sinkage that carries the load, for each mesh held at two or more
     sinkages: the power law Q_V = Q_1 (s / s_1)^n through the two held points nearest the load,
     solved for Q_V = load (the constant-load steady state, read off the steady force-sinkage curve).
     Each change is against the same strain's first of :func:`coarser_meshes`. Runs repeated at
     one sinkage count once (the last read); a mesh whose force does not grow with sinkage between
-    the two points is reported as such, without a sinkage."""
+    the two points, or whose power law reaches the load more than ``READ_MARGIN`` times beyond
+    them, is reported as such, without a sinkage."""
     meshes = {}
     for key, a, h, mesh in rows:
         meshes.setdefault((key[:2], key[3:]), (a, mesh, {}))[2][h["s_hold"]] = h["QV_hold"]
@@ -426,13 +430,16 @@ def sinkage_at_load(rows) -> str:
         load = 1e3 * a["load"]
         (s1, q1), (s2, q2) = sorted(points, key=lambda p: abs(math.log(p[1] / load)))[:2]
         n = math.log(q2 / q1) / math.log(s2 / s1)
-        if n > 0:
-            s = s1 * (load / q1) ** (1 / n)
+        s = s1 * (load / q1) ** (1 / n) if n > 0 else None
+        lo, hi = sorted((s1, s2))
+        if s is not None and lo / READ_MARGIN <= s <= READ_MARGIN * hi:
             found[group + refinements] = (s, mesh)
             sinkage = f"{1e3 * s:.2f} mm"
             change, against = against_coarser(s, found, group, refinements)
         else:
-            sinkage, change, against = "not read: Q_V does not grow with s", "", ""
+            sinkage = ("not read: Q_V does not grow with s" if s is None else
+                       f"not read: the load lies {'below' if s < lo else 'above'} the held sinkages")
+            change, against = "", ""
         body.append([a["volumetric_strain"], f"{a['refinement']:g}" if a["refinement"] else a["accuracy"], mesh,
                      " / ".join(f"{1e3 * p[0]:.2f}" for p in points) + " mm", f"{n:.3f}",
                      f"{a['load']:g} kN", sinkage, change, against])

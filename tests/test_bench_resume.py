@@ -400,17 +400,19 @@ def test_held_run_at_a_set_step_falls_back_to_the_default_step(benchmarks, tmp_p
 @pytest.mark.serial
 def test_sinkage_at_load_skips_repeats_and_flat_curves(benchmarks, tmp_path, capsys):
     """A mesh held twice at one sinkage has a single point (no row); a mesh whose force falls with
-    sinkage gets a row that says so instead of a sinkage."""
+    sinkage, or whose power law meets the load far below its held points, gets a row that says so
+    instead of a sinkage."""
     protocols = benchmarks[0].protocols
     paths = [_held_run(tmp_path / f"run{k}.json", "cell-average", across, s_hold, q, load=100.0)
              for k, (across, s_hold, q) in enumerate(((2.0, 0.03, 90e3), (2.0, 0.03, 91e3), (4.0, 0.02, 95e3),
-                                                      (4.0, 0.03, 94e3)))]
+                                                      (4.0, 0.03, 94e3), (8.0, 0.02, 108e3), (8.0, 0.04, 125e3)))]
     assert protocols.main(["--table"] + [str(p) for p in paths]) == 0
     tables = capsys.readouterr().out.split("\n\n")
     assert len(tables) == 2
     at_load = [line for line in tables[1].splitlines() if line.startswith("| cell-average")]
-    assert len(at_load) == 1 and "4x across the path" in at_load[0]
+    assert len(at_load) == 2 and "4x across the path" in at_load[0] and "8x across the path" in at_load[1]
     assert "not read: Q_V does not grow with s" in at_load[0] and "20.00 / 30.00 mm" in at_load[0]
+    assert "not read: the load lies below the held sinkages" in at_load[1] and "20.00 / 40.00 mm" in at_load[1]
 
 
 def test_held_run_reads_the_load_only_near_its_ramp(benchmarks):
