@@ -67,6 +67,8 @@ from rollsim.solver.stepping import StepControl
 D, B, GAMMA = 1.524, 0.4572, 20e3
 #: the axis along which each anisotropic mesh field shortens the refined strip's hexahedra
 SHORTER = dict(zip(ANISOTROPIC_REFINEMENTS, ("along the path", "across the path", "in depth")))
+#: depth of the refined strip (d) unless ``--refined-depth`` is given
+REFINED_DEPTH = 0.4
 
 
 def _block(comm, args, stiff, length=None):
@@ -304,7 +306,7 @@ def parser() -> argparse.ArgumentParser:
         p.add_argument(f"--{name.replace('_', '-')}", type=float, default=1.0,
                        help=f"with --hexahedra: the refined strip's elements this many times shorter {axis}")
     p.add_argument("--path-half-width", type=float, default=0.3, help="half width of the refined strip, d")
-    p.add_argument("--refined-depth", type=float, default=0.4, help="depth of the refined strip, d")
+    p.add_argument("--refined-depth", type=float, default=REFINED_DEPTH, help="depth of the refined strip, d")
     p.add_argument("--cl-travel", type=float, default=1.3, help="constant-load travel limit, d")
     p.add_argument("--travel-step", type=float, default=0.0,
                    help="constant-load travel step, mm (0: the solver's default, WheelRolling.travel_step)")
@@ -345,7 +347,7 @@ def parser() -> argparse.ArgumentParser:
 def held_runs(paths) -> list:
     """The held runs saved in ``paths`` (JSON files of this script) as (key, args, hold, mesh name),
     sorted by key = (strain, elements per d, held sinkage, refinement across, along, in depth,
-    travel step in mm (0: the solver's default))."""
+    travel step in mm (0: the solver's default), depth of the refined strip in d)."""
     rows = []
     for path in paths:
         with open(path) as f:
@@ -355,25 +357,29 @@ def held_runs(paths) -> list:
             h = r.get("hold")
             if not h or "QV_hold" not in h:
                 continue
-            step = a.get("roll_step", 0.0)
+            step, strip = a.get("roll_step", 0.0), a.get("refined_depth", REFINED_DEPTH)
             shorter = [f"{a.get(k, 1.0):g}x {axis}" for k, axis in SHORTER.items() if a.get(k, 1.0) != 1.0]
             mesh = ", ".join(shorter) or "isotropic"
             rows.append(((a["volumetric_strain"], a["refinement"] or 0.0, h["s_hold"], a.get("cross_refinement", 1.0),
-                          a.get("path_refinement", 1.0), a.get("depth_refinement", 1.0), step), a, h,
-                         mesh + (f", {step:g} mm steps" if step else "")))
+                          a.get("path_refinement", 1.0), a.get("depth_refinement", 1.0), step, strip), a, h,
+                         mesh + (f" to {strip:g} d deep" if strip != REFINED_DEPTH else "")
+                         + (f", {step:g} mm steps" if step else "")))
     return sorted(rows, key=lambda row: row[0])
 
 
 def coarser_meshes(refinements: tuple) -> list:
-    """The discretisations (refinement across, along, in depth, travel step) coarser than
-    ``refinements``: for a run at a set travel step the same mesh at the solver's default step;
-    then the meshes twice as coarse along one axis at the same step, and for a set step after
-    them the same coarser meshes at the default step, in that order."""
-    mesh, step = refinements[:3], refinements[3]
+    """The discretisations (refinement across, along, in depth, travel step, depth of the refined
+    strip) coarser than ``refinements``: for a run at a set travel step the same mesh at the
+    solver's default step; then the meshes twice as coarse along one axis at the same step, and for
+    a set step after them the same coarser meshes at the default step, in that order; all with the
+    same strip, and for a strip of another depth than ``REFINED_DEPTH`` then again with that one."""
+    mesh, step, strip = refinements[:3], refinements[3], refinements[4]
     coarser = [mesh[:i] + (mesh[i] / 2,) + mesh[i + 1:] for i in range(3) if mesh[i] >= 2]
     if not step:
-        return [c + (0.0,) for c in coarser]
-    return [mesh + (0.0,)] + [c + (step,) for c in coarser] + [c + (0.0,) for c in coarser]
+        found = [c + (0.0,) for c in coarser]
+    else:
+        found = [mesh + (0.0,)] + [c + (step,) for c in coarser] + [c + (0.0,) for c in coarser]
+    return [c + (strip,) for c in found] + ([c + (REFINED_DEPTH,) for c in found] if strip != REFINED_DEPTH else [])
 
 
 def against_coarser(value: float, found: dict, group: tuple, refinements: tuple) -> tuple[str, str]:

@@ -338,11 +338,12 @@ def test_rolling_cells_runs_each_mesh_variant_once(monkeypatch, tmp_path, capsys
 
 
 def _held_run(path, strain: str, across: float, s_hold: float, q: float, depth: float = 1.0,
-              roll_step: float = 0.0, *, load: float):
+              roll_step: float = 0.0, *, load: float, refined_depth: float = 0.4):
     """Write a held run of ``bench_rolling_protocols`` to ``path``: Q_V = ``q`` (N) held at ``s_hold`` (m)
-    on the 6-per-d mesh refined ``across`` and in ``depth``, travel step ``roll_step`` (mm, 0: default), the load ``load`` (kN)."""
+    on the 6-per-d mesh refined ``across`` and in ``depth`` (the strip ``refined_depth`` d deep),
+    travel step ``roll_step`` (mm, 0: default), the load ``load`` (kN)."""
     args = {"volumetric_strain": strain, "refinement": 6.0, "accuracy": "fast", "cross_refinement": across,
-            "depth_refinement": depth, "roll_step": roll_step, "load": load}
+            "depth_refinement": depth, "roll_step": roll_step, "load": load, "refined_depth": refined_depth}
     hold = {"mu": 0.0, "s_hold": s_hold, "QV_hold": q, "QV_hold_std": 1e3, "QH_hold": 1e4, "steps": 60,
             "newton_iterations": 400, "cuts": 0, "time_s": 10.0}
     path.write_text(json.dumps({"args": args, "results": [{"hold": hold}, {"hold": None}]}))
@@ -395,6 +396,27 @@ def test_held_run_at_a_set_step_falls_back_to_the_default_step(benchmarks, tmp_p
     rows = [line for line in at_load.splitlines() if line.startswith("| cell-average")]
     assert len(rows) == 2 and "25.4 mm steps" in rows[1] and rows[1].endswith("| 2x across the path |")
     assert "%" not in rows[0] and "%" in rows[1].split(" | ")[-2]
+
+
+@pytest.mark.serial
+def test_held_run_on_a_shallower_strip_is_compared_with_the_full_strip(benchmarks, tmp_path, capsys):
+    """A strip refined to another depth is named so, kept apart from the full-depth strip of the
+    same refinements, and compared with a coarser mesh of its own depth where one was run, else of
+    the full depth."""
+    protocols = benchmarks[0].protocols
+    runs = ((0.03, 100e3, 2.0, 25.4, 0.4), (0.03, 96e3, 4.0, 25.4, 0.2), (0.03, 90e3, 4.0, 25.4, 0.4),
+            (0.02, 80e3, 2.0, 25.4, 0.4), (0.02, 85e3, 2.0, 25.4, 0.2), (0.02, 84e3, 4.0, 25.4, 0.2))
+    paths = [_held_run(tmp_path / f"run{k}.json", "cell-average", 4.0, s_hold, q, depth, step, load=95.0,
+                       refined_depth=strip) for k, (s_hold, q, depth, step, strip) in enumerate(runs)]
+    assert protocols.main(["--table"] + [str(p) for p in paths]) == 0
+    held, at_load = capsys.readouterr().out.split("\n\n")
+    shallow = "4x across the path, 4x in depth to 0.2 d deep, 25.4 mm steps"
+    rows = {(r.split(" | ")[2], r.split(" | ")[4]): r for r in held.splitlines() if r.startswith("| cell-average")}
+    assert "| -4.0 % | 4x across the path, 2x in depth, 25.4 mm steps |" in rows[(shallow, "30.00 mm")]
+    assert "| -10.0 % | 4x across the path, 2x in depth, 25.4 mm steps |" in rows[
+        ("4x across the path, 4x in depth, 25.4 mm steps", "30.00 mm")]
+    assert "| -1.2 % | 4x across the path, 2x in depth to 0.2 d deep, 25.4 mm steps |" in rows[(shallow, "20.00 mm")]
+    assert len([r for r in at_load.splitlines() if r.startswith("| cell-average")]) == 2
 
 
 @pytest.mark.serial
@@ -521,3 +543,4 @@ def test_indentation_push_continues_from_its_last_complete_checkpoint(benchmarks
     assert resumed["steps_from_checkpoint"] == first["steps"] > 0
     assert resumed["QV"]["0.02"] == pytest.approx(first["QV"]["0.02"], rel=1e-12)
     assert resumed["QV"]["0.03"] == pytest.approx(whole["QV"]["0.03"], rel=1e-6)
+
