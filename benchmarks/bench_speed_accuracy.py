@@ -11,7 +11,10 @@ of its protocol on the fast preset, for every level, unless ``--volumetric-strai
   s/d = 0.02, 0.05 and 0.08;
 * ``indentation-dp``: report case 5 (Drucker-Prager phi_dp = 27.5 deg, c_dp = 194.6 kPa), same;
 * ``rolling-case5``: towed at 133.5 kN on the case-5 soil, the sinkage of steady rolling (the
-  scene and the measure of ``bench_rolling_convergence.py``).
+  scene and the measure of ``bench_rolling_convergence.py``);
+* ``tire-indentation``: the pneumatic tire of ``examples/pneumatic_indentation.toml`` (inflated,
+  then pressed into a clay; tire and soil meshed at the level's element size), Q_V at a sinkage
+  of 10, 20 and 30 mm.
 
 Each (scene, level, ranks) runs in its own ``mpirun`` process (wall time and peak memory of that
 run alone) and is appended to ``--results`` (JSON, one file per scene); runs already there are not
@@ -45,12 +48,14 @@ from _bench import run_in_mpirun
 HERE = pathlib.Path(__file__).resolve().parent
 RESULTS = HERE / "results"
 FIGURE = HERE.parent / "docs" / "img" / "speed-accuracy.png"
-SCENES = ("indentation-vm", "indentation-dp", "rolling-case5")
+SCENES = ("indentation-vm", "indentation-dp", "rolling-case5", "tire-indentation")
 PRESETS = {"fast": 8.0, "standard": 20.0, "accurate": 50.0}
 DEFAULT_LEVELS = ("fast", "12", "16", "standard")
 DECISIONS = (("screening", 0.10), ("design", 0.05), ("verification", 0.02))
 ERROR_FLOOR = 0.1                     # %, the figure's floor: smaller errors are ripple, not accuracy
 S_READ = (0.02, 0.05, 0.08)            # s/d of the indentation readings; the last one is the scored one
+TIRE_SCENE = HERE.parent / "examples" / "pneumatic_indentation.toml"
+TIRE_READ = (0.01, 0.02, 0.03)         # m, sinkages of the tire's readings; the last one is the scored one
 
 
 def level_value(level: str) -> float:
@@ -94,6 +99,10 @@ def run_scene(comm, scene: str, refinement: float, volumetric_strain: str | None
         res = indentation.run(comm, str(refinement), mat, d, b, gamma, mu, s_end=S_READ[-1], volumetric_strain=strain)
         readings = {f"{r:g}": res["QV"].get(f"{r:g}") for r in S_READ}
         out = {"value": readings[f"{S_READ[-1]:g}"], "readings": readings, "linear_solves": res["newton_iterations"]}
+    elif scene == "tire-indentation":
+        out = tire_run(comm, refinement, strain)
+        res = {"status": out.pop("status"), "steps": out["steps"], "newton_iterations": out["newton_iterations"],
+               "cuts": out.pop("cuts"), "dofs": out.pop("dofs"), "cells": out.pop("cells")}
     else:
         import bench_rolling_convergence as convergence
         args = convergence.level_args("case5", refinement, strain)
@@ -108,6 +117,38 @@ def run_scene(comm, scene: str, refinement: float, volumetric_strain: str | None
             "newton_iterations": res["newton_iterations"], "iterations_per_step": res["newton_iterations"] / steps,
             "cuts": res["cuts"], "peak_memory_mb": peak,
             "time_s": comm.allreduce(time.perf_counter() - t0, op=MPI.MAX), **out}
+
+
+def tire_run(comm, refinement: float, strain: str) -> dict:
+    """The tire scene at ``refinement`` elements per d (tire and soil), run in a temporary
+    directory: Q_V (N) at the ``TIRE_READ`` sinkages, interpolated linearly between the steps of
+    the force-sinkage curve, and the run's cost."""
+    import csv
+    import shutil
+    import tempfile
+
+    import numpy as np
+
+    from rollsim.files import read_toml
+    from rollsim.scene import parse_scene
+    from rollsim.solver.run import run_scene
+    data = read_toml(TIRE_SCENE, str(TIRE_SCENE))
+    scene = parse_scene({**data, "model": data.get("model", {}) | {"refinement": refinement,
+                                                                    "volumetric_strain": strain}})
+    work = pathlib.Path(comm.bcast(tempfile.mkdtemp(prefix="rollsim-tire-") if comm.rank == 0 else None))
+    summary = run_scene(scene, work, comm, progress=False, write_fields=False)
+    readings = None
+    if comm.rank == 0:
+        with (work / "history.csv").open() as f:
+            rows = [(float(r["sinkage_m"]), float(r["QV_N"])) for r in csv.DictReader(f)]
+        s, q = np.array([0.0] + [r[0] for r in rows]), np.array([0.0] + [r[1] for r in rows])
+        readings = {f"{r:g}": float(np.interp(r, s, q)) if s[-1] >= r else None for r in TIRE_READ}
+        shutil.rmtree(work)
+    readings = comm.bcast(readings)
+    return {"value": readings[f"{TIRE_READ[-1]:g}"], "readings": readings, "status": summary["status"],
+            "steps": summary["steps"], "newton_iterations": summary["newton_iterations"],
+            "linear_solves": summary["linear_solves"], "cuts": summary["step_cuts"], "dofs": summary["dofs"],
+            "cells": summary["cells"]}
 
 
 def sweep(args) -> int:
@@ -139,6 +180,8 @@ def scene_strain(scene: str, volumetric_strain: str | None) -> str:
     """The volumetric strain of a scene's runs: the one given, else its protocol's scene default on
     the fast preset (one strain for every level of a sweep)."""
     from rollsim.solver.options import default_volumetric_strain
+    if scene == "tire-indentation":
+        return volumetric_strain or default_volumetric_strain("indentation", "fast", wheel="pneumatic")
     return volumetric_strain or default_volumetric_strain(
         "indentation" if scene.startswith("indentation") else "rolling-constant-load", "fast")
 
@@ -173,7 +216,8 @@ def scored(runs: list[dict]) -> tuple[list[dict], str]:
 
 
 def table(scene: str, runs: list[dict], note: str) -> str:
-    unit = ("Q_V at s/d = 0.08", 1e-3, "kN") if scene.startswith("indentation") else ("steady sinkage", 1e3, "mm")
+    unit = {"tire-indentation": ("Q_V at s = 30 mm", 1e-3, "kN"),
+            "rolling-case5": ("steady sinkage", 1e3, "mm")}.get(scene, ("Q_V at s/d = 0.08", 1e-3, "kN"))
     by_level = {}
     for r in runs:
         by_level.setdefault(r["refinement"], {})[r["ranks"]] = r

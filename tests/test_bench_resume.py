@@ -9,6 +9,7 @@ import pathlib
 
 import numpy as np
 import pytest
+from mpi4py import MPI
 
 from rollsim.solver.rolling import RollingStep
 
@@ -544,3 +545,39 @@ def test_indentation_push_continues_from_its_last_complete_checkpoint(benchmarks
     assert resumed["QV"]["0.02"] == pytest.approx(first["QV"]["0.02"], rel=1e-12)
     assert resumed["QV"]["0.03"] == pytest.approx(whole["QV"]["0.03"], rel=1e-6)
 
+
+@pytest.mark.serial
+def test_speed_accuracy_reads_the_tire_off_its_curve_and_scores_it(monkeypatch, tmp_path, capsys):
+    """The tire scene reads Q_V at 10, 20 and 30 mm off its run's force-sinkage curve (linear
+    between steps, from the origin), leaves no run directory behind, and its levels are scored
+    against the Richardson value of the three finest in a table of Q_V at 30 mm."""
+    monkeypatch.syspath_prepend(str(BENCHMARKS))
+    import bench_speed_accuracy as speed
+    import rollsim.solver.run
+    work = []
+
+    def run_scene(scene, out, comm, **options):
+        assert scene.model.refinement == 12 and scene.wheel.type == "pneumatic" and not options["write_fields"]
+        out.mkdir(parents=True, exist_ok=True)
+        (out / "history.csv").write_text("step,sinkage_m,QV_N\n1,0.008,16000\n2,0.016,40000\n3,0.032,72000\n")
+        work.append(out)
+        return {"status": "ok", "steps": 3, "newton_iterations": 30, "linear_solves": 30, "step_cuts": 1,
+                "dofs": 100, "cells": 10}
+
+    monkeypatch.setattr(rollsim.solver.run, "run_scene", run_scene)
+    run = speed.tire_run(MPI.COMM_WORLD, 12.0, "cell-average")
+    assert run["readings"] == pytest.approx({"0.01": 22e3, "0.02": 48e3, "0.03": 68e3})
+    assert run["value"] == pytest.approx(68e3) and run["cuts"] == 1 and not work[0].exists()
+    levels = {8: 70e3, 12: 60e3 + 640e3 / 144, 16: 62.5e3, 20: 61.6e3}     # 60 kN + C h^2
+    runs = [{"scene": "tire-indentation", "refinement": float(n), "ranks": 1, "volumetric_strain": "cell-average",
+             "status": "ok", "cells": 10, "dofs": 100, "steps": 3, "newton_iterations": 30,
+             "iterations_per_step": 10.0, "cuts": 0, "peak_memory_mb": 300.0, "time_s": float(n), "value": q,
+             "linear_solves": 30} for n, q in levels.items()]
+    (tmp_path / "speed_accuracy_tire-indentation.json").write_text(json.dumps({"runs": runs}))
+    assert speed.main(["--report", "--scene", "tire-indentation", "--results", str(tmp_path),
+                       "--figure", str(tmp_path / "trade.png")]) == 0
+    text = capsys.readouterr().out
+    assert "Q_V at s = 30 mm; reference 60000 (Richardson from 20, 16, 12 (order 2.00))" in text
+    assert "| 8 (fast) | 10 | 100 | 70.00 kN | +16.7 % |" in text
+    assert "| 20 (standard) | 10 | 100 | 61.60 kN | +2.7 % |" in text
+    assert "| tire-indentation | 12, 12 s | 16, 16 s | finer than run |" in text and (tmp_path / "trade.png").exists()
