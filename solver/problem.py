@@ -410,13 +410,16 @@ class PlasticityProblem:
         self._internal_force_forms: dict = {}
 
         self.options_prefix = options_prefix
+        #: "auto" chose the iterative solver: it gives way to the direct one where it fails
+        self._auto_iterative = linear_solver == "auto" and self.n_dofs > AUTO_ITERATIVE_DOFS
         if linear_solver == "auto":
-            linear_solver = "iterative" if self.n_dofs > AUTO_ITERATIVE_DOFS else "direct"
+            linear_solver = "iterative" if self._auto_iterative else "direct"
         self.linear_solver = linear_solver
+        self._user_petsc_options = dict(petsc_options or {})
         self.petsc_options = dict(DEFAULT_PETSC_OPTIONS)
         if linear_solver == "iterative":
             self.petsc_options.update(ITERATIVE_SOLVER_OPTIONS)
-        self.petsc_options.update(petsc_options or {})
+        self.petsc_options.update(self._user_petsc_options)
         self.timings = {"residual": 0.0, "jacobian": 0.0, "return_map": 0.0, "snes": 0.0, "iterations": 0,
                         "linear_solves": 0}
         self._force_scale = 0.0
@@ -791,6 +794,10 @@ class PlasticityProblem:
         self._linear_solves = 0
         t0 = time.perf_counter()
         compat.petsc_vector(self.u).copy(self._x)
+        # an automatic iterative choice that fails gives way to the direct solver, which then
+        # repeats a plain solve from the same start (a bordered one is cut and repeated by its caller)
+        start = self._x.copy() if self._auto_iterative and self.linear_solver == "iterative" else None
+        retry = False
         its = 0
         try:
             if border is None:
@@ -820,11 +827,20 @@ class PlasticityProblem:
             # solver all following (cut) steps fail the same way
             log.info("linear solve failed inside Newton (%s); linear solver re-created",
                      self.snes.getKSP().getConvergedReason())
+            if start is not None:
+                self._use_direct_solver()
+                retry = border is None
             self.reset_linear_solver()
         dt = time.perf_counter() - t0
         self.timings["snes"] += dt
         self.timings["iterations"] += its
         self.timings["linear_solves"] += self._linear_solves
+        if start is not None:
+            if retry:
+                self._load_x(start)
+            start.destroy()
+            if retry:
+                return self.solve_increment()
         converged = reason > 0
         plateau = self._plateau if converged else 0.0
         #: ``|F|`` (N) left by the last solve if it ended on an accepted plateau, else 0
@@ -942,6 +958,19 @@ class PlasticityProblem:
             yield
         finally:
             use(own)
+
+    def _use_direct_solver(self) -> None:
+        """Switch an automatic choice of the iterative linear solver to the direct one (MUMPS LU)
+        for the rest of the run, after the iterative solve failed (e.g. GAMG on a tire's carcass
+        in contact with the soil); :attr:`linear_solver` then reads "direct"."""
+        log.warning("the iterative linear solver failed (%d dofs): the direct solver (MUMPS LU) takes "
+                    "over for the rest of the run", self.n_dofs)
+        opts = PETSc.Options()
+        for k in ITERATIVE_SOLVER_OPTIONS:
+            if k not in self._user_petsc_options:
+                opts.delValue(self.options_prefix + k)
+        self.linear_solver = "direct"
+        self.petsc_options = {**DEFAULT_PETSC_OPTIONS, **self._user_petsc_options}
 
     def reset_linear_solver(self) -> None:
         """Give SNES a fresh KSP with the same options.  After a PETSc error inside SNES (e.g.

@@ -96,3 +96,21 @@ def test_elastic_solve_time_uses_the_configured_solver(comm):
                               fem.locate_dofs_topological(pb.V, 1, facets), pb.V)]
     assert pb.elastic_solve_time(repeat=1) > 0
     assert pb.snes.getKSP().getPC().getType() == "gamg"
+
+
+def test_auto_iterative_solver_gives_way_to_the_direct_one_where_it_fails(comm, monkeypatch):
+    """Where the automatically chosen iterative solver fails, the direct one takes over for the rest
+    of the run: the push goes on and ends where the direct solver's does (same sinkage and force)."""
+    direct = _plane_strain_wheel(comm, "direct")
+    direct.gravity_step()
+    direct.push(0.01)
+    monkeypatch.setattr(problem_module, "AUTO_ITERATIVE_DOFS", 10)
+    monkeypatch.setattr(problem_module, "ITERATIVE_SOLVER_OPTIONS",        # an iterative solver that fails
+                        {"ksp_type": "gmres", "ksp_max_it": 2, "ksp_rtol": 1e-12, "pc_type": "jacobi"})
+    auto = _plane_strain_wheel(comm, "auto")
+    assert auto.problem.linear_solver == "iterative"
+    auto.gravity_step()
+    auto.push(0.01)
+    assert auto.problem.linear_solver == "direct" and auto.problem.snes.getKSP().getPC().getType() == "lu"
+    assert auto.steps[-1].sinkage == pytest.approx(direct.steps[-1].sinkage, rel=1e-9)
+    assert auto.steps[-1].QV == pytest.approx(direct.steps[-1].QV, rel=1e-3)
