@@ -839,8 +839,8 @@ class PlasticityProblem:
             if retry:
                 self._load_x(start)
             start.destroy()
-            if retry:
-                return self.solve_increment()
+        if retry:
+            return self.solve_increment()
         converged = reason > 0
         plateau = self._plateau if converged else 0.0
         #: ``|F|`` (N) left by the last solve if it ended on an accepted plateau, else 0
