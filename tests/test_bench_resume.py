@@ -565,9 +565,9 @@ def test_speed_accuracy_reads_the_tire_off_its_curve_and_scores_it(monkeypatch, 
                 "dofs": 100, "cells": 10}
 
     monkeypatch.setattr(rollsim.solver.run, "run_scene", run_scene)
-    run = speed.tire_run(MPI.COMM_WORLD, 12.0, "cell-average")
+    cost, run = speed.tire_run(MPI.COMM_WORLD, 12.0, "cell-average")
     assert run["readings"] == pytest.approx({"0.01": 22e3, "0.02": 48e3, "0.03": 68e3})
-    assert run["value"] == pytest.approx(68e3) and run["cuts"] == 1 and not work[0].exists()
+    assert run["value"] == pytest.approx(68e3) and cost["cuts"] == 1 and not work[0].exists()
     levels = {8: 70e3, 12: 60e3 + 640e3 / 144, 16: 62.5e3, 20: 61.6e3}     # 60 kN + C h^2
     runs = [{"scene": "tire-indentation", "refinement": float(n), "ranks": 1, "volumetric_strain": "cell-average",
              "status": "ok", "cells": 10, "dofs": 100, "steps": 3, "newton_iterations": 30,
