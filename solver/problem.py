@@ -416,10 +416,7 @@ class PlasticityProblem:
             linear_solver = "iterative" if self._auto_iterative else "direct"
         self.linear_solver = linear_solver
         self._user_petsc_options = dict(petsc_options or {})
-        self.petsc_options = dict(DEFAULT_PETSC_OPTIONS)
-        if linear_solver == "iterative":
-            self.petsc_options.update(ITERATIVE_SOLVER_OPTIONS)
-        self.petsc_options.update(self._user_petsc_options)
+        self.petsc_options = self._solver_options(linear_solver)
         self.timings = {"residual": 0.0, "jacobian": 0.0, "return_map": 0.0, "snes": 0.0, "iterations": 0,
                         "linear_solves": 0}
         self._force_scale = 0.0
@@ -970,7 +967,13 @@ class PlasticityProblem:
             if k not in self._user_petsc_options:
                 opts.delValue(self.options_prefix + k)
         self.linear_solver = "direct"
-        self.petsc_options = {**DEFAULT_PETSC_OPTIONS, **self._user_petsc_options}
+        self.petsc_options = self._solver_options("direct")
+
+    def _solver_options(self, linear_solver: str) -> dict:
+        """The PETSc options of ``linear_solver`` ("direct" or "iterative"): the defaults, the
+        iterative solver's own, then the caller's ``petsc_options`` over them."""
+        iterative = ITERATIVE_SOLVER_OPTIONS if linear_solver == "iterative" else {}
+        return {**DEFAULT_PETSC_OPTIONS, **iterative, **self._user_petsc_options}
 
     def reset_linear_solver(self) -> None:
         """Give SNES a fresh KSP with the same options.  After a PETSc error inside SNES (e.g.
