@@ -74,14 +74,15 @@ def run(comm, accuracy, mat, d, b, gamma, mu, s_end=0.1, linear_solver="auto", v
                            linear_solver=linear_solver, volumetric_strain=volumetric_strain,
                            petsc_options=petsc_options)
     ind.gravity_step()
-    status, its_before, steps_before = "ok", 0, 0
+    status, steps_before = "ok", 0
     stops = [r * d for r in STOPS if r <= s_end]
     found = None if checkpoint is None else comm.bcast(complete_directory(checkpoint) if comm.rank == 0 else None)
     if found is not None:
-        its_before, steps_before = ind.read_checkpoint(found), len(ind.steps)
+        ind.read_checkpoint(found)
+        steps_before = len(ind.steps)
         if comm.rank == 0:
             print(f"  {accuracy}: continuing from {checkpoint} at s/d = {ind.sinkage / d:.4f} "
-                  f"({len(ind.steps)} steps, {its_before} Newton iterations)", flush=True)
+                  f"({len(ind.steps)} steps, {ind.newton_iterations} Newton iterations)", flush=True)
 
     def on_step(st):
         if verbose and comm.rank == 0:
@@ -108,7 +109,7 @@ def run(comm, accuracy, mat, d, b, gamma, mu, s_end=0.1, linear_solver="auto", v
     return {"accuracy": accuracy, "linear_solver": ind.problem.linear_solver,
             "volumetric_strain": volumetric_strain, "cells": tm.stats.cells,
             "dofs": ind.n_dofs, "status": status,
-            "steps": len(ind.steps), "newton_iterations": its_before + ind.newton_iterations, "cuts": ind.cuts,
+            "steps": len(ind.steps), "newton_iterations": ind.newton_iterations, "cuts": ind.cuts,
             "time_s": comm.allreduce(time.perf_counter() - t0, op=MPI.MAX),   # this sitting
             "steps_from_checkpoint": steps_before, "QV": q,
             "contact_stiffness": (ind.contact.kappa, ind.contact.k_t),

@@ -115,7 +115,7 @@ def constant_load(comm, mu, args):
     load = args.load * 1e3
     out = {"mu": mu, "cells": tm.stats.cells, "dofs": roll.n_dofs, "status": "ok"}
     on_step, before = resumable(roll, args, "constant_load", mu, args.cl_travel * D)
-    resumed, (its_before, time_before) = before is not None, before or (0, 0.0)
+    resumed, time_before = before is not None, before or 0.0
     try:
         if not resumed:
             res = roll.press_to_load(load, 0.25 * D)
@@ -139,7 +139,7 @@ def constant_load(comm, mu, args):
             out.update(rut_depth=rut["rut_depth_m"], rebound=rut["rebound_m"])
     except SolverDivergedError as err:
         out["status"] = f"failed: {err}"
-    out.update(steps=len(roll.steps), newton_iterations=roll.newton_iterations + its_before, cuts=roll.cuts,
+    out.update(steps=len(roll.steps), newton_iterations=roll.newton_iterations, cuts=roll.cuts,
                time_s=comm.allreduce(time.perf_counter() - t0, op=MPI.MAX) + time_before,
                relaxed_travel=[[float(a), float(b)] for a, b in roll.relaxed_travel],
                travel_failures=[float(x) for x in roll.travel_failures],
@@ -187,7 +187,7 @@ def continuous(comm, mu, args, s_hold=None):
     out = {"mu": mu, "status": "ok", "s_hold": s_hold, "dofs": roll.n_dofs}
     s_end = args.s_end * D if s_hold is None else s_hold
     on_step, before = resumable(roll, args, "continuous" if s_hold is None else "hold", mu, args.travel * D)
-    its_before, time_before = before or (0, 0.0)
+    time_before = before or 0.0
     try:
         roll.press(args.s0 * D)
         done, ramp = roll.position - roll.x_start, (args.ramp or args.travel) * D
@@ -220,7 +220,7 @@ def continuous(comm, mu, args, s_hold=None):
         out.update(s_cont=float(s[i - 1] + w * (s[i] - s[i - 1])), QH_cont=float(qh[i - 1] + w * (qh[i] - qh[i - 1])))
     else:
         out["s_cont"] = None
-    out.update(steps=len(roll.steps), newton_iterations=roll.newton_iterations + its_before, cuts=roll.cuts,
+    out.update(steps=len(roll.steps), newton_iterations=roll.newton_iterations, cuts=roll.cuts,
                time_s=comm.allreduce(time.perf_counter() - t0, op=MPI.MAX) + time_before,
                curve=[(st.travel, st.sinkage, st.QV, st.QH) for st in roll.steps])
     return out
@@ -265,9 +265,9 @@ def write_checkpoint(roll: WheelRolling, ckpt: pathlib.Path, args) -> None:
         roll.write_checkpoint(stage)
 
 
-def resume(roll: WheelRolling, ckpt: pathlib.Path | None, args) -> tuple[int, float] | None:
+def resume(roll: WheelRolling, ckpt: pathlib.Path | None, args) -> float | None:
     """Continue ``roll`` (after its gravity step) from the checkpoint ``ckpt`` if there is one: the
-    Newton iterations and the wall time (s) of the steps before it, else None.  Raises ``SystemExit``
+    wall time (s) of the steps before it (the roll counts their Newton iterations), else None.  Raises ``SystemExit``
     (status 2) when the checkpoint was written with other arguments."""
     if ckpt is None:
         return None
@@ -281,11 +281,11 @@ def resume(roll: WheelRolling, ckpt: pathlib.Path | None, args) -> tuple[int, fl
             print(f"--checkpoint: {ckpt} was written with other {', '.join('--' + k.replace('_', '-') for k in changed)}"
                   " (remove it to start over)", file=sys.stderr)
         raise SystemExit(2)
-    its = roll.read_checkpoint(found) - roll.newton_iterations        # the gravity step counted once
+    roll.read_checkpoint(found)
     if roll.comm.rank == 0:
         print(f"continuing from {ckpt} at {(roll.position - roll.x_start) / D:.3f} d of travel "
-              f"({len(roll.steps)} steps, {its} Newton iterations)", flush=True)
-    return its, sum(st.time for st in roll.steps)
+              f"({len(roll.steps)} steps, {roll.newton_iterations} Newton iterations)", flush=True)
+    return sum(st.time for st in roll.steps)
 
 
 def parser() -> argparse.ArgumentParser:

@@ -94,11 +94,15 @@ class IndentationStep:
 
 
 class StepCounts:
-    """Newton iterations and step cuts so far of a driver with a ``problem`` and its ``steps``."""
+    """Newton iterations and step cuts so far of a driver with a ``problem`` and its ``steps``,
+    the steps before the checkpoint it continues from included."""
+
+    #: Newton iterations of the runs before the checkpoint this one continues from
+    newton_iterations_before = 0
 
     @property
     def newton_iterations(self) -> int:
-        return int(self.problem.timings["iterations"])
+        return int(self.problem.timings["iterations"]) + self.newton_iterations_before
 
     @property
     def cuts(self) -> int:
@@ -274,8 +278,9 @@ class WheelIndentation(StepCounts):
 
     def read_checkpoint(self, path) -> int:
         """Continue from a :meth:`write_checkpoint` directory (call after :meth:`gravity_step`, which
-        sets the geostatic stress the state was built on).  Returns the Newton iterations of the
-        run that wrote it.  Raises ``ValueError`` naming what does not match (dofs, points, steps)."""
+        sets the geostatic stress the state was built on); :attr:`newton_iterations` then counts on
+        from the written run's.  Returns the Newton iterations of the run that wrote it.  Raises
+        ``ValueError`` naming what does not match (dofs, points, steps)."""
         path = pathlib.Path(path)
         meta = json.loads((path / "steps.json").read_text())
         if meta["n_dofs"] != self.n_dofs:
@@ -300,6 +305,8 @@ class WheelIndentation(StepCounts):
         self.steps[:] = [IndentationStep(**s) for s in meta["steps"]]
         st.update(centre_n=stored["centre_n"], angle_n=float(stored["angle_n"]), n_steps=len(self.steps))
         self.load_state(st)
+        # from here on the count goes on from the written run's (its gravity step, not this one's)
+        self.newton_iterations_before = int(meta["newton_iterations"]) - int(self.problem.timings["iterations"])
         return int(meta["newton_iterations"])
 
     # ------------------------------------------------------------------ protocols

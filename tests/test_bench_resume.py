@@ -481,9 +481,10 @@ def test_held_run_logs_a_line_per_step_with_progress(benchmarks, monkeypatch, ca
 
 
 def test_held_run_continues_from_its_checkpoint(benchmarks, tmp_mpi_path, monkeypatch):
-    """A held run killed after its fifth rolled step (checkpoints every second step) and started
-    again with the same arguments gives the uninterrupted run's curve; other arguments are refused
-    (exit 2) before anything is solved."""
+    """A held run killed after its third rolled step (checkpoints every second step), started again
+    and killed again after its sixth, then started once more with the same arguments gives the
+    uninterrupted run's curve and Newton iterations; other arguments are refused (exit 2) before
+    anything is solved."""
     protocols = benchmarks[0].protocols
     argv = ["--mu", "0", "--hexahedra", "--refinement", "3", "--skip-constant-load", "--skip-continuous",
             "--hold-sinkage", "20", "--s0", "0.005", "--ramp", "0.08", "--travel", "0.2", "--cont-length", "1.2",
@@ -495,15 +496,16 @@ def test_held_run_continues_from_its_checkpoint(benchmarks, tmp_mpi_path, monkey
 
     rolled = []
 
-    def killed_after_five(self, st):
+    def killed_after_three_and_six(self, st):
         update(self, st)
         rolled.extend([st.travel] * (st.travel > 0))
-        if len(rolled) == 5:
+        if len(rolled) in (3, 6):
             raise KeyboardInterrupt
 
-    monkeypatch.setattr(protocols.TravelProgress, "update", killed_after_five)
-    with pytest.raises(KeyboardInterrupt):
-        protocols.main(argv + ckpt + ["--out", str(resumed)])
+    monkeypatch.setattr(protocols.TravelProgress, "update", killed_after_three_and_six)
+    for _ in range(2):          # the second run continues from the first's checkpoint and writes its own
+        with pytest.raises(KeyboardInterrupt):
+            protocols.main(argv + ckpt + ["--out", str(resumed)])
     monkeypatch.setattr(protocols.TravelProgress, "update", update)
     with pytest.raises(SystemExit) as exit_info:
         protocols.main(argv[:-1] + ["40"] + ckpt + ["--out", str(resumed)])

@@ -233,6 +233,7 @@ def test_checkpoint_continues_the_same_path(comm, tmp_mpi_path):
         assert resumed.sinkage == pytest.approx(0.005 * D, rel=1e-12) and len(resumed.steps) == 2
         resumed.push(0.01 * D, control=control)
         assert [s.iterations for s in resumed.steps] == [s.iterations for s in whole.steps]
+        assert resumed.newton_iterations == whole.newton_iterations     # what its checkpoints carry on
         for a, b in zip(resumed.steps, whole.steps):
             assert a.QV == pytest.approx(b.QV, rel=1e-8)
             assert a.QH == pytest.approx(b.QH, abs=1e-8 * abs(b.QV))

@@ -312,6 +312,7 @@ def test_checkpoint_continues_the_roll(comm, tmp_mpi_path):
         assert done == pytest.approx(dx) and resumed.steps[-1].travel == pytest.approx(dx)
         resumed.roll(travel - done, s_end, ramp=ramp - done, control=control)
         assert [s.iterations for s in resumed.steps] == [s.iterations for s in whole.steps]
+        assert resumed.newton_iterations == whole.newton_iterations     # what its checkpoints carry on
         for a, b in zip(resumed.steps, whole.steps):
             assert (a.travel, a.sinkage) == pytest.approx((b.travel, b.sinkage), rel=1e-12)
             assert a.QV == pytest.approx(b.QV, rel=1e-8)

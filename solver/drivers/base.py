@@ -141,8 +141,8 @@ class ProtocolRun:
         self.rows: list[dict] = []
         #: the field time series under ``fields/`` (a continued run adds one)
         self.field_series = ["fields.xdmf"]
-        #: Newton iterations and linear solves of the runs this one continues
-        self.before = {"newton_iterations": 0, "linear_solves": 0}
+        #: linear solves of the runs this one continues (the roll counts their Newton iterations)
+        self.solves_before = 0
         #: largest out-of-balance force left by an accepted Newton plateau, over that step's Q_V
         self.plateau_share = 0.0
         self.tagged = self.wheel_run = self.writer = None
@@ -254,8 +254,8 @@ class ProtocolRun:
         return {"status": status, "reason": reason, "protocol": self.scene.loading.protocol,
                 "scene": self.scene.to_dict(), "wall_time_s": wall, "ranks": self.comm.size, "dofs": run.n_dofs,
                 "cells": self.tagged.stats.cells, "steps": len(self.rows),
-                "newton_iterations": run.newton_iterations + self.before["newton_iterations"],
-                "linear_solves": int(run.problem.timings["linear_solves"]) + self.before["linear_solves"],
+                "newton_iterations": run.newton_iterations,
+                "linear_solves": int(run.problem.timings["linear_solves"]) + self.solves_before,
                 "step_cuts": run.cuts,
                 "newton_plateaus": {**run.problem.plateaus, "max_residual_over_QV": self.plateau_share},
                 "sinkage_m": last.get("sinkage_m", 0.0), "QV_N": last.get("QV_N", 0.0),
@@ -402,9 +402,8 @@ class RollingRun(ProtocolRun):
             return False
         roll = self.roll
         roll.read_checkpoint(meta["directory"])
-        # this run's gravity step is counted again by the totals
-        self.before = {"newton_iterations": meta["newton_iterations"] - roll.newton_iterations,
-                       "linear_solves": meta["linear_solves"] - int(roll.problem.timings["linear_solves"])}
+        # this run's gravity step takes the place of the written run's in the totals
+        self.solves_before = meta["linear_solves"] - int(roll.problem.timings["linear_solves"])
         self.rows[:] = meta["rows"]
         self.frames, self.t_start = meta["frames"], self.t_start - meta["wall_time_s"]
         self.plateau_share = max(self.plateau_share, meta["plateau_share"])
@@ -426,8 +425,8 @@ class RollingRun(ProtocolRun):
                     meta = {"identity": self.identity, "travel": roll.position - roll.x_start, "rows": self.rows,
                             "frames": self.frames, "field_series": self.field_series, "continued": self.continued,
                             "wall_time_s": time.perf_counter() - self.t_start, "plateau_share": self.plateau_share,
-                            "newton_iterations": roll.newton_iterations + self.before["newton_iterations"],
-                            "linear_solves": int(roll.problem.timings["linear_solves"]) + self.before["linear_solves"]}
+                            "newton_iterations": roll.newton_iterations,
+                            "linear_solves": int(roll.problem.timings["linear_solves"]) + self.solves_before}
                     atomic_write_text(stage / "run.json", json.dumps(meta, default=json_default))
 
     def travel_relaxation(self) -> tuple[float, list[tuple[float, float]]]:
