@@ -40,7 +40,8 @@ VARIANTS = {
     "hexahedra, 6 per d, 8 across, B-bar": {"refinement": 6, "cell_type": "hexahedra", "elements_across_wheel": 8,
                                             "volumetric_strain": "cell-average"},
 }
-MESH_KEYS = ("accuracy", "refinement", "cell_type", "elements_across_wheel", "volumetric_strain")
+MESH_KEYS = ("accuracy", "refinement", "cell_type", "elements_across_wheel", "elements_along_path",
+             "volumetric_strain")
 
 
 def variant_scene(path: pathlib.Path, name: str):

@@ -87,6 +87,7 @@ class ModelSpec:
     refinement: float | None = None   # elements per wheel diameter under the wheel; None: the preset's
     cell_type: str | None = None   # a rigid wheel's rolling block: tetrahedra or hexahedra; None: n/a
     elements_across_wheel: float | None = None   # hexahedra: across the wheel's width; None: no finer across
+    elements_along_path: float | None = None   # hexahedra: per d along the path in the strip; None: no finer along
     kinematics: str = DEFAULT_KINEMATICS
     linear_solver: str = DEFAULT_LINEAR_SOLVER
     volumetric_strain: str = DEFAULT_VOLUMETRIC_STRAIN   # parse_scene: default_volumetric_strain(protocol, ...)
@@ -109,11 +110,13 @@ class ModelSpec:
     @property
     def mesh_name(self) -> str:
         """The mesh in words: the preset, or the elements per d that replace it, and the hexahedra's
-        elements across the wheel."""
+        elements across the wheel and, where finer, along the path."""
         name = self.accuracy if self.refinement is None else f"{self.refinement:g} elements per d"
         if self.elements_across_wheel is not None:
-            along = f"{self.elements_per_d:g} per d, " if self.refinement is None else ""
-            name += f" (hexahedra, {along}{self.elements_across_wheel:g} across the wheel)"
+            per_d = f"{self.elements_per_d:g} per d, " if self.refinement is None else ""
+            along = (f", {self.elements_along_path:g} per d along the path"
+                     if self.elements_along_path not in (None, self.elements_per_d) else "")
+            name += f" (hexahedra, {per_d}{self.elements_across_wheel:g} across the wheel{along})"
         return name
 
 
@@ -162,7 +165,7 @@ PLAUSIBLE = {
     "travel_relaxation_fallback": (0.0, 10.0, 0.0, 0.01),
     "regularising_cohesion": (0.0, 1e6, 0.0, 10e3),
     "plateau_tolerance": (0.0, 0.1, 0.0, 0.01), "refinement": (2.0, 200.0, 6.0, 50.0),
-    "elements_across_wheel": (1.0, 200.0, 4.0, 32.0),
+    "elements_across_wheel": (1.0, 200.0, 4.0, 32.0), "elements_along_path": (2.0, 400.0, 6.0, 48.0),
 }
 
 
@@ -336,28 +339,37 @@ def _loading(t: _Table, wheel: WheelSpec) -> LoadingSpec:
 
 
 def _rolling_cells(t: _Table, wheel: WheelSpec, loading: LoadingSpec, accuracy: str,
-                   refinement: float | None) -> tuple[str | None, float | None]:
-    """``[model] cell_type`` and ``elements_across_wheel``: (cell type, elements across the wheel's
-    width), both None where they do not apply.  Hexahedra apply to rolling a rigid wheel, by
-    default on the ``standard`` and ``accurate`` presets (``default_cell_type``); across the wheel
-    they default to the preset's count (``ROLLING_HEXAHEDRA``), or to
-    ``DEFAULT_ELEMENTS_ACROSS_WHEEL`` with a ``refinement``."""
+                   refinement: float | None) -> tuple[str | None, float | None, float | None]:
+    """``[model] cell_type``, ``elements_across_wheel`` and ``elements_along_path``: (cell type,
+    elements across the wheel's width, elements per d along the path), None where they do not
+    apply.  Hexahedra apply to rolling a rigid wheel, by default on the ``standard`` and
+    ``accurate`` presets (``default_cell_type``); across the wheel and along the path they default
+    to the preset's counts (``ROLLING_HEXAHEDRA``), or with a ``refinement`` to
+    ``DEFAULT_ELEMENTS_ACROSS_WHEEL`` across and the refinement along."""
+    keys = ("cell_type", "elements_across_wheel", "elements_along_path")
     if wheel.type != "rigid" or not loading.protocol.startswith("rolling"):
-        for key in ("cell_type", "elements_across_wheel"):
+        for key in keys:
             if t.has(key):
                 raise InputError(t.key(key), "applies to rolling a rigid wheel (indentation blocks are tetrahedral, "
                                  "a pneumatic wheel's hexahedral)")
-        return None, None
+        return None, None, None
     cell_type = t.choice("cell_type", CELL_TYPES, default=default_cell_type(accuracy, refinement))
     across = t.quantity("elements_across_wheel", DIMENSIONLESS, default=None, positive=True)
+    along = t.quantity("elements_along_path", DIMENSIONLESS, default=None, positive=True)
     if cell_type != "hexahedra":
-        if across is not None:
-            raise InputError(t.key("elements_across_wheel"), 'needs cell_type = "hexahedra" (tetrahedral element '
-                             "sizes are isotropic)")
-        return cell_type, None
+        for key, value in zip(keys[1:], (across, along)):
+            if value is not None:
+                raise InputError(t.key(key), 'needs cell_type = "hexahedra" (tetrahedral element sizes are isotropic)')
+        return cell_type, None, None
+    per_d = refinement if refinement is not None else ROLLING_HEXAHEDRA[accuracy][0]
+    if along is not None and along < per_d:
+        raise InputError(t.key("elements_along_path"), f"must be at least the elements per d ({per_d:g}): the "
+                         "strip is refined along the path, never coarsened")
     if across is None:
         across = DEFAULT_ELEMENTS_ACROSS_WHEEL if refinement is not None else ROLLING_HEXAHEDRA[accuracy][1]
-    return cell_type, across
+    if along is None:
+        along = refinement if refinement is not None else ROLLING_HEXAHEDRA[accuracy][2]
+    return cell_type, across, along
 
 
 def parse_scene(data: dict) -> Scene:
@@ -375,8 +387,9 @@ def parse_scene(data: dict) -> Scene:
     accuracy = model_table.choice("accuracy", ACCURACIES, default=DEFAULT_ACCURACY)
     refinement = model_table.quantity("refinement", DIMENSIONLESS, default=None)
     strain = default_volumetric_strain(loading.protocol, accuracy, refinement, wheel.type)
-    cell_type, across = _rolling_cells(model_table, wheel, loading, accuracy, refinement)
+    cell_type, across, along = _rolling_cells(model_table, wheel, loading, accuracy, refinement)
     model = ModelSpec(accuracy=accuracy, refinement=refinement, cell_type=cell_type, elements_across_wheel=across,
+                      elements_along_path=along,
                       kinematics=model_table.choice("kinematics", KINEMATICS, default=DEFAULT_KINEMATICS),
                       linear_solver=model_table.choice("linear_solver", LINEAR_SOLVERS, default=DEFAULT_LINEAR_SOLVER),
                       volumetric_strain=model_table.choice("volumetric_strain", VOLUMETRIC_STRAINS, default=strain),

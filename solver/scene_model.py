@@ -236,12 +236,15 @@ def path_half_width(scene) -> float:
 def rolling_mesh_options(scene) -> MeshOptions:
     """Element sizes of the scene's rolling block: the elements per d of its ``[model]``, on
     hexahedra (``cell_type``) with the refined strip's elements shortened across the path so that
-    ``elements_across_wheel`` of them span the wheel's width (never coarser than along it)."""
+    ``elements_across_wheel`` of them span the wheel's width (never coarser than along it) and
+    along the path to ``elements_along_path`` per d."""
     d, per_d = scene.wheel.diameter, scene.model.elements_per_d
     if scene.model.cell_type != "hexahedra":
         return MeshOptions.from_refinement(d, per_d)
     across = scene.model.elements_across_wheel * (d / per_d) / scene.wheel.width
-    return MeshOptions.from_refinement(d, per_d, hexahedra=True, cross_refinement=max(1.0, across))
+    along = (scene.model.elements_along_path or per_d) / per_d
+    return MeshOptions.from_refinement(d, per_d, hexahedra=True, cross_refinement=max(1.0, across),
+                                       path_refinement=max(1.0, along))
 
 
 def rolling_mesh(scene, comm: MPI.Comm, *, length: float | None = None, half_width: float = 1.5,

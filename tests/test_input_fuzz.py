@@ -19,7 +19,7 @@ SCENE_KEYS = {
     "layer": ["model", "E", "nu", "thickness", "phi_dp", "c_dp", "c", "phi", "match", "dilation", "psi"],
     "loading": ["protocol", "max_sinkage", "load", "travel", "speed"],
     "model": ["accuracy", "kinematics", "linear_solver", "volumetric_strain", "relaxation_length",
-              "regularising_cohesion", "cell_type", "elements_across_wheel", "mesh"],
+              "regularising_cohesion", "cell_type", "elements_across_wheel", "elements_along_path", "mesh"],
 }
 WORDS = ["rigid", "pneumatic", "torus", "cylinder", "von-mises", "drucker-prager", "mohr-coulomb", "indentation",
          "rolling-continuous", "rolling-constant-load", "fast", "standard", "compression", "plane-strain",

@@ -81,10 +81,12 @@ def test_frictionless_rolling_run_directory(comm, tmp_mpi_path):
     comm.barrier()
 
 
-def _hexahedral_scene(across=None, travel=0.1 * D):
-    """Frictionless clay rolled ``travel`` (m); ``across``: elements across the wheel at 4 per d,
-    None: the ``standard`` preset's defaults."""
+def _hexahedral_scene(across=None, travel=0.1 * D, along=None):
+    """Frictionless clay rolled ``travel`` (m); ``across``: elements across the wheel at 4 per d
+    (``along`` per d along the path, None: 4), None: the ``standard`` preset's defaults."""
     model = {} if across is None else {"refinement": 4, "cell_type": "hexahedra", "elements_across_wheel": across}
+    if along is not None:
+        model["elements_along_path"] = along
     data = {"wheel": {"diameter": D, "width": B, "friction": 0.0},
             "soil": {"gamma": GAMMA, "layers": [{"model": "von-mises", "E": 40e6, "nu": 0.35, "c_dp": 200e3}]},
             "loading": {"protocol": "rolling-continuous", "max_sinkage": 0.02 * D, "travel": travel},
@@ -95,26 +97,27 @@ def _hexahedral_scene(across=None, travel=0.1 * D):
 def test_hexahedral_rolling_block_spans_the_wheel_with_the_elements_asked_for(comm, tmp_mpi_path):
     """[model] cell_type = "hexahedra": the refined strip's hexahedra are shortened across the path
     so that elements_across_wheel of them span the wheel's width (half of them on the half block),
-    while along the path they keep the elements per d; the scene runs, frictionless with zero axle
-    moment, and its summary names the cells.  The ``standard`` preset rolls on them with B-bar, 6
-    elements per d along the path and 8 across the wheel."""
+    while along the path they keep the elements per d or take elements_along_path; the scene runs,
+    frictionless with zero axle moment, and its summary names the cells.  The ``standard`` preset
+    rolls on them with B-bar, 6 elements per d, 8 across the wheel and 12 per d along the path."""
     from rollsim.solver.scene_model import rolling_mesh
-    for across in (8, 12):
-        tagged = rolling_mesh(_hexahedral_scene(across), comm, **BLOCK)
+    for across, along_per_d in ((8, None), (12, 8)):
+        tagged = rolling_mesh(_hexahedral_scene(across, along=along_per_d), comm, **BLOCK)
         assert compat.cell_name(tagged.mesh) == "hexahedron"
         x = np.concatenate(comm.allgather(tagged.mesh.geometry.x))
         top = x[np.abs(x[:, 2]) < 1e-9]
         y = np.unique(np.round(np.abs(top[:, 1]), 9))
         assert np.count_nonzero(y <= B / 2 + 1e-9) - 1 == across // 2          # intervals across the half width
         along = np.unique(np.round(top[np.abs(top[:, 1]) < 1e-9, 0], 9))
-        assert np.diff(along).max() == pytest.approx(D / 4, rel=0.2)            # 4 elements per d along
+        assert np.diff(along).max() == pytest.approx(D / (along_per_d or 4), rel=0.2)   # elements per d along
     summary = run_scene(_hexahedral_scene(), tmp_mpi_path, comm, progress=False, write_fields=False,
                         block=BLOCK, initial_sinkage=0.01 * D)
     assert summary["status"] == "ok", summary.get("reason")
     model = summary["model"]
     assert model["cell_type"] == "hexahedron" and model["elements_across_wheel"] == 8
-    assert model["elements_per_d"] == 6 and model["volumetric_strain"] == "cell-average"
-    assert model["travel_step_m"] == pytest.approx(0.2 * D / 6, rel=0.05)   # a fifth of an element along
+    assert model["elements_per_d"] == 6 and model["elements_along_path"] == 12
+    assert model["volumetric_strain"] == "cell-average"
+    assert model["travel_step_m"] == pytest.approx(0.2 * D / 12, rel=0.05)   # a fifth of an element along
     assert summary["travel_m"] == pytest.approx(0.1 * D) and summary["QH_N"] > 0
     assert abs(summary["moment_Nm"]) < 1e-8 * summary["QV_N"] * D
 

@@ -110,6 +110,7 @@ def test_si_conversion_and_defaults():
     ("model.refinement", "12 mm", "model.refinement"),
     ("model.cell_type", "hexahedra", "model.cell_type"),                # indentation: tetrahedral
     ("model.elements_across_wheel", 8, "model.elements_across_wheel"),  # rolling only
+    ("model.elements_along_path", 12, "model.elements_along_path"),      # rolling only
 ])
 def test_bad_scene_one_line_exit_2(tmp_path, capsys, path, value, field):
     scene = tmp_path / "scene.toml"
@@ -123,24 +124,35 @@ def test_bad_scene_one_line_exit_2(tmp_path, capsys, path, value, field):
 
 
 def test_hexahedral_rolling_block_options():
-    """[model] cell_type / elements_across_wheel: rolling a rigid wheel only; by default hexahedra
-    with B-bar on standard (6 per d along, 8 across) and accurate (8, 16), tetrahedra on fast and
-    with a refinement; refused on tetrahedra and out of range, named in the mesh's name."""
+    """[model] cell_type / elements_across_wheel / elements_along_path: rolling a rigid wheel only;
+    by default hexahedra with B-bar on standard (6 per d, 8 across, 12 per d along the path) and
+    accurate (8, 16, 24), tetrahedra on fast and with a refinement; refused on tetrahedra, out of
+    range and (along the path) coarser than the elements per d, named in the mesh's name."""
     rolling = with_change("loading", {"protocol": "rolling-constant-load", "load": "133.5 kN", "travel": "3 m"})
-    expected = {"standard": ("hexahedra", 6, 8, "cell-average"), "accurate": ("hexahedra", 8, 16, "cell-average"),
-                "fast": ("tetrahedra", 8, None, "pointwise")}
+    expected = {"standard": ("hexahedra", 6, 8, 12, "cell-average"),
+                "accurate": ("hexahedra", 8, 16, 24, "cell-average"),
+                "fast": ("tetrahedra", 8, None, None, "pointwise")}
     for accuracy, cells in expected.items():
         rolling["model"] = {"accuracy": accuracy}
         model = parse_scene(rolling).model
-        assert (model.cell_type, model.elements_per_d, model.elements_across_wheel, model.volumetric_strain) == cells
+        assert (model.cell_type, model.elements_per_d, model.elements_across_wheel, model.elements_along_path,
+                model.volumetric_strain) == cells
     assert model.mesh_name == "fast"
     rolling["model"] = {}
-    assert parse_scene(rolling).model.mesh_name == "standard (hexahedra, 6 per d, 8 across the wheel)"
+    assert (parse_scene(rolling).model.mesh_name
+            == "standard (hexahedra, 6 per d, 8 across the wheel, 12 per d along the path)")
     rolling["model"] = {"refinement": 12}                   # elements per d over the preset: tetrahedra
     model = parse_scene(rolling).model
     assert (model.cell_type, model.elements_per_d, model.elements_across_wheel) == ("tetrahedra", 12, None)
     rolling["model"] = {"cell_type": "hexahedra", "refinement": 10}
-    assert parse_scene(rolling).model.elements_across_wheel == 8
+    model = parse_scene(rolling).model
+    assert (model.elements_across_wheel, model.elements_along_path) == (8, 10)
+    rolling["model"]["elements_along_path"] = 20
+    assert parse_scene(rolling).model.elements_along_path == 20
+    rolling["model"]["elements_along_path"] = 8                # coarser along the path than per d
+    with pytest.raises(InputError, match="at least the elements per d") as err:
+        parse_scene(rolling)
+    assert err.value.field == "model.elements_along_path"
     rolling["model"] = {"cell_type": "hexahedra", "accuracy": "fast"}
     model = parse_scene(rolling).model
     assert model.elements_across_wheel == 8 and model.mesh_name == "fast (hexahedra, 6 per d, 8 across the wheel)"
@@ -152,10 +164,11 @@ def test_hexahedral_rolling_block_options():
         with pytest.raises(InputError) as err:
             parse_scene(rolling)
         assert err.value.field == "model.elements_across_wheel"
-    rolling["model"] = {"cell_type": "tetrahedra", "elements_across_wheel": 8}
-    with pytest.raises(InputError, match="needs cell_type") as err:
-        parse_scene(rolling)
-    assert err.value.field == "model.elements_across_wheel"
+    for key in ("elements_across_wheel", "elements_along_path"):
+        rolling["model"] = {"cell_type": "tetrahedra", key: 8}
+        with pytest.raises(InputError, match="needs cell_type") as err:
+            parse_scene(rolling)
+        assert err.value.field == f"model.{key}"
     tire = {"type": "pneumatic", "diameter": "1.2 m", "width": "0.4 m", "hub_diameter": "0.6 m",
             "inflation": "600 kPa", "E_carcass": "200 MPa"}
     rolling.update(wheel=tire, model={"cell_type": "hexahedra"})

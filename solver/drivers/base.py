@@ -225,6 +225,7 @@ class ProtocolRun:
                  "plateau_tolerance": run.problem.plateau_rtol}
         if self.scene.model.elements_across_wheel is not None:
             model["elements_across_wheel"] = self.scene.model.elements_across_wheel
+            model["elements_along_path"] = self.scene.model.elements_along_path
         travel_fallback, relaxed_travel = self.travel_relaxation()
         if relaxed_travel is not None:
             model["travel_relaxation_fallback_m"] = travel_fallback
