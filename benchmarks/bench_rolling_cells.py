@@ -1,17 +1,20 @@
 """A rolling scene on tetrahedra against hexahedra refined across the wheel, in one run.
 
     mpirun -n 2 python benchmarks/bench_rolling_cells.py --out benchmarks/results/rolling_cells.json
+    mpirun -n 2 python benchmarks/bench_rolling_cells.py --variant "tetrahedra, fast" standard \
+        --work runs --out benchmarks/results/rolling_cells_standard.json
     python benchmarks/bench_rolling_cells.py --table benchmarks/results/rolling_cells.json
 
-Runs the scene (default ``examples/rolling_constant_load_mndot.toml``: the Mn/DOT roller at
-133.5 kN towed onto the case-5 soil) through ``rollsim run``'s driver once per mesh variant,
-one after the other on the same ranks: the ``fast`` tetrahedra, and hexahedra at 6 elements
-per d along the path with 8 across the wheel's width (``[model] cell_type = "hexahedra"``),
-with the scene's default strain and with B-bar.  Prints cells, dofs, steps, Newton iterations,
-cuts, wall time, the mean sinkage over the rolled steps from 1 d of travel on (and its standard
-deviation: the element-passing ripple) and the steady sinkage when detected, with each
-variant's wall-time ratio to the first.  An existing ``--out`` file is resumed: the variants it
-holds are not run again.
+Runs the scene (default ``examples/rolling_constant_load_mndot.toml``: the Mn/DOT roller at 133.5 kN
+towed onto the case-5 soil) through ``rollsim run``'s driver once per mesh variant, one after the
+other on the same ranks: the ``fast`` tetrahedra, hexahedra at 6 elements per d along the path with
+8 across the wheel's width (``[model] cell_type = "hexahedra"``) with the scene's default strain and
+with B-bar, and the ``standard`` preset.  Prints cells, dofs, steps, Newton iterations, cuts, wall
+time, the mean sinkage over the rolled steps from 1 d of travel on (and its standard deviation: the
+element-passing ripple) and the steady sinkage when detected, with each variant's wall-time ratio to
+the first.  An existing ``--out`` file is resumed: the variants it holds are not run again.  With
+``--work`` the run directories are kept there, and a variant that was killed continues from its last
+checkpoint.
 """
 from __future__ import annotations
 
@@ -36,9 +39,11 @@ SCENE = ROOT / "examples" / "rolling_constant_load_mndot.toml"
 #: the mesh variants, by name: ``[model]`` keys replacing the scene's mesh keys
 VARIANTS = {
     "tetrahedra, fast": {"accuracy": "fast"},
-    "hexahedra, 6 per d, 8 across": {"refinement": 6, "cell_type": "hexahedra", "elements_across_wheel": 8},
+    "hexahedra, 6 per d, 8 across": {"refinement": 6, "cell_type": "hexahedra", "elements_across_wheel": 8,
+                                     "elements_along_path": 6},
     "hexahedra, 6 per d, 8 across, B-bar": {"refinement": 6, "cell_type": "hexahedra", "elements_across_wheel": 8,
-                                            "volumetric_strain": "cell-average"},
+                                            "elements_along_path": 6, "volumetric_strain": "cell-average"},
+    "standard": {"accuracy": "standard"},
 }
 MESH_KEYS = ("accuracy", "refinement", "cell_type", "elements_across_wheel", "elements_along_path",
              "volumetric_strain")
@@ -76,6 +81,41 @@ def run_variant(comm, path: pathlib.Path, name: str, work: pathlib.Path) -> dict
             "steady_sinkage": summary["sinkage_m"] if steady.get("reached") else None}
 
 
+def read_history(history: pathlib.Path) -> list[dict]:
+    """Rows of a rolling run's ``history.csv`` as floats."""
+    with history.open() as f:
+        return [{k: float(v) for k, v in r.items()} for r in csv.DictReader(f)]
+
+
+def progress_row(name: str, rows: list[dict], upto: float, window: tuple[float, float], load: float) -> dict:
+    """What a run (finished or stopped) did up to ``upto`` m of travel: steps, Newton iterations,
+    wall time; and its mean sinkage (m) over the steps at the load with travel in ``window``."""
+    done = [r for r in rows if r["travel_m"] <= upto + 1e-9]
+    held = [r["sinkage_m"] for r in rows
+            if window[0] <= r["travel_m"] <= window[1] and r["QV_N"] >= 0.999 * load]
+    return {"variant": name, "travel_m": max(r["travel_m"] for r in rows), "steps": len(done),
+            "newton_iterations": int(sum(r["newton_iterations"] for r in done)),
+            "time_s": done[-1]["wall_time_s"], "sinkage": sum(held) / len(held) if held else math.nan}
+
+
+def progress_table(work: pathlib.Path, upto: float, window: tuple[float, float]) -> str:
+    """Markdown table of the run directories under ``work`` (one per variant, stopped ones
+    included) compared over their first ``upto`` m of travel, with wall-time ratios to the first."""
+    scene = load_scene(SCENE)
+    lines = [f"| mesh | travel rolled | steps to {upto:g} m | Newton its | wall time to {upto:g} m | time / first | "
+             f"mean sinkage, {window[0]:g}-{window[1]:g} m |", "|---|---|---|---|---|---|---|"]
+    base = None
+    for name in VARIANTS:
+        history = work / name.replace(", ", "_").replace(" ", "-") / "history.csv"
+        if not history.exists():
+            continue
+        r = progress_row(name, read_history(history), upto, window, scene.loading.load)
+        base = base or r["time_s"]
+        lines.append(f"| {name} | {r['travel_m']:.2f} m | {r['steps']} | {r['newton_iterations']} | "
+                     f"{r['time_s']:.0f} s | {r['time_s'] / base:.2f} | {1e3 * r['sinkage']:.2f} mm |")
+    return "\n".join(lines)
+
+
 def table(results: list[dict]) -> str:
     """Markdown table of the variants, with wall-time ratios to the first row of each scene."""
     lines = ["| scene | mesh | strain | cells | dofs | steps | Newton its | cuts | mean from 1 d (± std) | "
@@ -95,12 +135,25 @@ def table(results: list[dict]) -> str:
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--scene", type=pathlib.Path, default=SCENE, help="a rolling-constant-load scene (TOML)")
-    p.add_argument("--variant", nargs="+", choices=list(VARIANTS), default=list(VARIANTS),
-                   help="the mesh variants to run, in order")
+    p.add_argument("--variant", nargs="+", choices=list(VARIANTS), default=list(VARIANTS)[:3],
+                   help="the mesh variants to run, in order (default: all but standard)")
+    p.add_argument("--work", type=pathlib.Path, default=None,
+                   help="keep the run directories here (default: a temporary directory); a killed variant "
+                        "continues from its checkpoint")
+    p.add_argument("--progress", nargs=3, type=float, metavar=("UPTO", "FROM", "TO"),
+                   help="with --work: compare the run directories there (stopped runs too) over their "
+                        "first UPTO m of travel, the mean sinkage over FROM-TO m, and stop")
     add_results_arguments(p)
     args = p.parse_args(argv)
     comm = MPI.COMM_WORLD
     setup_logging(comm)
+    if args.progress:
+        if args.work is None:
+            p.error("--progress needs --work")
+        if comm.rank == 0:
+            upto, a, b = args.progress
+            print(progress_table(args.work, upto, (a, b)))
+        return 0
     if args.table:
         return show_table(comm, table, saved_results(args.table))
     results = saved_results(args.out)
@@ -108,7 +161,7 @@ def main(argv=None) -> int:
     if load_scene(args.scene).loading.protocol != "rolling-constant-load":
         raise SystemExit(f"{args.scene}: loading.protocol must be rolling-constant-load")
     with tempfile.TemporaryDirectory() as tmp:
-        work = pathlib.Path(comm.bcast(tmp if comm.rank == 0 else None))
+        work = args.work or pathlib.Path(comm.bcast(tmp if comm.rank == 0 else None))
         for name in args.variant:
             if (args.scene.name, name) in done:
                 continue

@@ -315,7 +315,9 @@ def test_rolling_cells_runs_each_mesh_variant_once(monkeypatch, tmp_path, capsys
     scene = cells.variant_scene(cells.SCENE, "hexahedra, 6 per d, 8 across, B-bar")
     assert (scene.model.cell_type, scene.model.elements_across_wheel, scene.model.refinement) == ("hexahedra", 8, 6)
     assert scene.model.volumetric_strain == "cell-average" and scene.model.accuracy == "standard"
+    assert scene.model.elements_along_path == 6
     assert cells.variant_scene(cells.SCENE, "tetrahedra, fast").model.volumetric_strain == "pointwise"
+    assert cells.variant_scene(cells.SCENE, "standard").model.accuracy == "standard"
     history = tmp_path / "history.csv"
     history.write_text("travel_m,QV_N,QH_N,sinkage_m\n0,133500,0,0.001\n1.0,133500,9e3,0.5\n1.6,133500,9e3,0.020\n"
                        "2.0,133500,9e3,0.022\n2.4,133500,9e3,0.021\n3.0,52000,0,0.015\n")
@@ -336,6 +338,27 @@ def test_rolling_cells_runs_each_mesh_variant_once(monkeypatch, tmp_path, capsys
     assert ran == [first, second]
     text = capsys.readouterr().out
     assert f"| {second} | pointwise | 10 | 100 | 5 | 20 | 0 | 20.00 ± 1.00 mm | not detected | 300 s (1) | 1.50 |" in text
+
+
+@pytest.mark.serial
+def test_rolling_cells_compares_stopped_runs_over_a_common_travel(monkeypatch, tmp_path, capsys):
+    """bench_rolling_cells --progress: each run directory under --work, stopped or finished, is
+    read up to the same travel; the sinkage is averaged over the window at the load only."""
+    monkeypatch.syspath_prepend(str(BENCHMARKS))
+    import bench_rolling_cells as cells
+    header = "step,sinkage_m,QV_N,travel_m,newton_iterations,wall_time_s\n"
+    runs = {"tetrahedra_fast": "1,0.010,133500,0.5,4,10\n2,0.020,133500,1.0,6,30\n3,0.030,133500,1.5,8,60\n"
+                               "4,0.010,50000,2.0,2,70\n",
+            "standard": "1,0.010,133500,0.5,10,40\n2,0.024,133500,1.0,12,100\n3,0.040,120000,1.2,30,200\n"}
+    for name, rows in runs.items():
+        (tmp_path / name).mkdir()
+        (tmp_path / name / "history.csv").write_text(header + rows)
+    assert cells.main(["--work", str(tmp_path), "--progress", "1.0", "0.9", "1.3"]) == 0
+    text = capsys.readouterr().out
+    assert "| tetrahedra, fast | 2.00 m | 2 | 10 | 30 s | 1.00 | 20.00 mm |" in text
+    assert "| standard | 1.20 m | 2 | 22 | 100 s | 3.33 | 24.00 mm |" in text
+    with pytest.raises(SystemExit):
+        cells.main(["--progress", "1.0", "0.9", "1.3"])
 
 
 def _held_run(path, strain: str, across: float, s_hold: float, q: float, depth: float = 1.0,
