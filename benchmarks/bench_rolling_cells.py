@@ -59,8 +59,7 @@ def variant_scene(path: pathlib.Path, name: str):
 def rolled_sinkage(history: pathlib.Path, d: float, load: float) -> tuple[float, float]:
     """Mean and standard deviation (m) of the sinkage over the steps rolled at the load from 1 d
     of travel on (``history.csv`` of a constant-load run; as the convergence study's mean)."""
-    with history.open() as f:
-        curve = [tuple(float(r[k]) for k in ("travel_m", "sinkage_m", "QV_N", "QH_N")) for r in csv.DictReader(f)]
+    curve = [tuple(r[k] for k in ("travel_m", "sinkage_m", "QV_N", "QH_N")) for r in read_history(history)]
     st = protocols.settled(curve, load, d)
     return (st["sinkage_mean"], st["sinkage_std"]) if st else (math.nan, math.nan)
 
@@ -68,7 +67,7 @@ def rolled_sinkage(history: pathlib.Path, d: float, load: float) -> tuple[float,
 def run_variant(comm, path: pathlib.Path, name: str, work: pathlib.Path) -> dict:
     """Run variant ``name`` of the scene at ``path`` in ``work``; its result row."""
     scene = variant_scene(path, name)
-    out = work / name.replace(", ", "_").replace(" ", "-")
+    out = run_directory(work, name)
     summary = run_scene(scene, out, comm, progress=True, write_fields=False)
     mean, std = rolled_sinkage(out / "history.csv", scene.wheel.diameter, scene.loading.load) \
         if comm.rank == 0 else (None, None)
@@ -79,6 +78,11 @@ def run_variant(comm, path: pathlib.Path, name: str, work: pathlib.Path) -> dict
             "cuts": summary["step_cuts"], "time_s": summary["wall_time_s"], "ranks": comm.size,
             "strain": summary["model"]["volumetric_strain"], "sinkage_mean": mean, "sinkage_std": std,
             "steady_sinkage": summary["sinkage_m"] if steady.get("reached") else None}
+
+
+def run_directory(work: pathlib.Path, name: str) -> pathlib.Path:
+    """The run directory of variant ``name`` under ``work``."""
+    return work / name.replace(", ", "_").replace(" ", "-")
 
 
 def read_history(history: pathlib.Path) -> list[dict]:
@@ -98,18 +102,18 @@ def progress_row(name: str, rows: list[dict], upto: float, window: tuple[float, 
             "time_s": done[-1]["wall_time_s"], "sinkage": sum(held) / len(held) if held else math.nan}
 
 
-def progress_table(work: pathlib.Path, upto: float, window: tuple[float, float]) -> str:
+def progress_table(work: pathlib.Path, upto: float, window: tuple[float, float], load: float) -> str:
     """Markdown table of the run directories under ``work`` (one per variant, stopped ones
-    included) compared over their first ``upto`` m of travel, with wall-time ratios to the first."""
-    scene = load_scene(SCENE)
+    included) compared over their first ``upto`` m of travel, with wall-time ratios to the first;
+    ``load``: the scene's wheel load (N)."""
     lines = [f"| mesh | travel rolled | steps to {upto:g} m | Newton its | wall time to {upto:g} m | time / first | "
              f"mean sinkage, {window[0]:g}-{window[1]:g} m |", "|---|---|---|---|---|---|---|"]
     base = None
     for name in VARIANTS:
-        history = work / name.replace(", ", "_").replace(" ", "-") / "history.csv"
+        history = run_directory(work, name) / "history.csv"
         if not history.exists():
             continue
-        r = progress_row(name, read_history(history), upto, window, scene.loading.load)
+        r = progress_row(name, read_history(history), upto, window, load)
         base = base or r["time_s"]
         lines.append(f"| {name} | {r['travel_m']:.2f} m | {r['steps']} | {r['newton_iterations']} | "
                      f"{r['time_s']:.0f} s | {r['time_s'] / base:.2f} | {1e3 * r['sinkage']:.2f} mm |")
@@ -152,7 +156,7 @@ def main(argv=None) -> int:
             p.error("--progress needs --work")
         if comm.rank == 0:
             upto, a, b = args.progress
-            print(progress_table(args.work, upto, (a, b)))
+            print(progress_table(args.work, upto, (a, b), load_scene(args.scene).loading.load))
         return 0
     if args.table:
         return show_table(comm, table, saved_results(args.table))
