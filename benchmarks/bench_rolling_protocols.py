@@ -413,6 +413,27 @@ def hold_table(rows) -> str:
     return _markdown(head, body)
 
 
+def hold_trend(args: dict, hold: dict) -> float | None:
+    """How fast Q_V still moves over the held steps of a run (those averaged into ``QV_hold``): the
+    slope of a straight line through them per wheel diameter of travel, relative to their mean
+    (about 0 once steady). None for a run without its kept curve or a ramp."""
+    if not hold.get("curve") or not args.get("ramp"):
+        return None
+    x, q = np.array([(step[0], step[2]) for step in hold["curve"]]).T
+    held = x >= (args["ramp"] + 0.5) * D
+    if held.sum() < 3:
+        return None
+    return float(np.polyfit(x[held], q[held], 1)[0] * D / q[held].mean())
+
+
+def hold_trend_table(rows) -> str:
+    """Markdown table of :func:`hold_trend` for the held runs ``rows`` (of :func:`held_runs`)."""
+    body = [[a["volumetric_strain"], mesh, f"{1e3 * h['s_hold']:.2f} mm", f"{100 * trend:+.1f} %"]
+            for _, a, h, mesh in rows if (trend := hold_trend(a, h)) is not None]
+    head = ["strain", "refined strip", "held sinkage", "Q_V trend over the held steps, per d of travel"]
+    return _markdown(head, body) if body else ""
+
+
 READ_MARGIN = 1.1   # how far (a factor) beyond its two held points a power law is read
 
 
@@ -472,9 +493,9 @@ def main(argv=None) -> int:
     if args.table:
         rows = held_runs(args.table)
         print(hold_table(rows))
-        at_load = sinkage_at_load(rows)
-        if at_load:
-            print("\n" + at_load)
+        for table in (sinkage_at_load(rows), hold_trend_table(rows)):
+            if table:
+                print("\n" + table)
         return 0
     comm = MPI.COMM_WORLD
     setup_logging(comm, quiet=not args.progress)

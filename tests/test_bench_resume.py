@@ -461,6 +461,28 @@ def test_sinkage_at_load_skips_repeats_and_flat_curves(benchmarks, tmp_path, cap
     assert "not read: the load lies below the held sinkages" in at_load[1] and "20.00 / 40.00 mm" in at_load[1]
 
 
+@pytest.mark.serial
+def test_held_trend_is_the_slope_over_the_held_steps(benchmarks, tmp_path, capsys):
+    """The trend of a held run is the straight-line slope of Q_V over the steps after half a diameter
+    of holding, per diameter of travel and relative to their mean; the ramp and the first half
+    diameter of holding do not count, and a run without its curve gets no row."""
+    protocols = benchmarks[0].protocols
+    d = protocols.D
+    x = np.linspace(0.0, 1.2 * d, 49)
+    q = np.where(x < 1.0 * d, 50e3 * x / d, 100e3 * (1.0 + 0.1 * (x / d - 1.1)))   # +10 % per d when held
+    paths = [_held_run(tmp_path / f"run{k}.json", "cell-average", across, 0.03, 100e3, load=100.0)
+             for k, across in enumerate((2.0, 4.0))]
+    saved = json.loads(paths[0].read_text())
+    saved["args"]["ramp"] = 0.5
+    saved["results"][0]["hold"]["curve"] = [(xi, 0.03, qi, 0.0) for xi, qi in zip(x, q)]
+    paths[0].write_text(json.dumps(saved))
+    assert protocols.hold_trend(saved["args"], saved["results"][0]["hold"]) == pytest.approx(0.1)
+    assert protocols.main(["--table"] + [str(p) for p in paths]) == 0
+    trend = capsys.readouterr().out.split("\n\n")[-1]
+    rows = [line for line in trend.splitlines() if line.startswith("| cell-average")]
+    assert rows == ["| cell-average | 2x across the path | 30.00 mm | +10.0 % |"]
+
+
 def test_held_run_reads_the_load_only_near_its_ramp(benchmarks):
     """The sinkage carrying the load, read off a held run's ramp slope, is given only where the
     slope grows and the line stays within the width of the ramp's sinkages of the held one."""
