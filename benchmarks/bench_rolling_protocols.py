@@ -176,6 +176,12 @@ def _sinkage_at_load(s_fit, slope, s_hold, q_hold, load):
     return s if abs(s - s_hold) <= np.ptp(s_fit) else None
 
 
+def held_steps(travel, ramp: float) -> np.ndarray:
+    """Mask of the steps averaged into the steady Q_V of a held run: those at a travel (m) past the
+    ramp (``ramp`` d) and half a diameter of holding."""
+    return np.asarray(travel) >= (ramp + 0.5) * D
+
+
 def continuous(comm, mu, args, s_hold=None):
     """The continuous protocol; with ``s_hold`` (m) the sinkage is ramped to it over ``--ramp`` d
     and then held to the end of ``--travel`` (steady rolling at a fixed sinkage)."""
@@ -203,9 +209,9 @@ def continuous(comm, mu, args, s_hold=None):
     x = np.array([st.travel for st in rolled])
     load = args.load * 1e3
     if s_hold is not None and args.ramp:
-        # steady Q_V at the held sinkage (after half a diameter of holding), and the sinkage where
+        # steady Q_V at the held sinkage (over the held steps), and the sinkage where
         # the steady curve carries the load: s_hold + (load - Q_hold) / (dQ_V/ds over the ramp's last half)
-        held = x >= (args.ramp + 0.5) * D
+        held = held_steps(x, args.ramp)
         late = (x >= 0.5 * args.ramp * D) & (x < args.ramp * D)
         if held.sum() >= 3 and late.sum() >= 3:
             slope = float(np.polyfit(s[late], q[late], 1)[0])
@@ -420,7 +426,7 @@ def hold_trend(args: dict, hold: dict) -> float | None:
     if not hold.get("curve") or not args.get("ramp"):
         return None
     x, q = np.array([(step[0], step[2]) for step in hold["curve"]]).T
-    held = x >= (args["ramp"] + 0.5) * D
+    held = held_steps(x, args["ramp"])
     if held.sum() < 3:
         return None
     return float(np.polyfit(x[held], q[held], 1)[0] * D / q[held].mean())
