@@ -419,24 +419,51 @@ def hold_table(rows) -> str:
     return _markdown(head, body)
 
 
-def hold_trend(args: dict, hold: dict) -> float | None:
-    """How fast Q_V still moves over the held steps of a run (those averaged into ``QV_hold``): the
-    slope of a straight line through them per wheel diameter of travel, relative to their mean
-    (about 0 once steady). None for a run without its kept curve or a ramp."""
+#: length (in d) of the stretches of held travel over which the trend table averages Q_V
+STRETCH = 0.2
+
+
+def held_curve(args: dict, hold: dict) -> tuple[np.ndarray, np.ndarray] | None:
+    """Travel (in d) and Q_V (N) of the held steps of a saved run (those averaged into
+    ``QV_hold``), or None for a run without its kept curve, a ramp or three held steps."""
     if not hold.get("curve") or not args.get("ramp"):
         return None
     x, q = np.array([(step[0], step[2]) for step in hold["curve"]]).T
     held = held_steps(x, args["ramp"])
-    if held.sum() < 3:
+    return (x[held] / D, q[held]) if held.sum() >= 3 else None
+
+
+def hold_trend(args: dict, hold: dict) -> float | None:
+    """How fast Q_V still moves over the held steps of a run: the slope of a straight line through
+    them per wheel diameter of travel, relative to their mean (about 0 once steady)."""
+    if (curve := held_curve(args, hold)) is None:
         return None
-    return float(np.polyfit(x[held], q[held], 1)[0] * D / q[held].mean())
+    x, q = curve
+    return float(np.polyfit(x, q, 1)[0] / q.mean())
+
+
+def held_stretches(args: dict, hold: dict) -> list[float]:
+    """Mean Q_V (N) over successive stretches of ``STRETCH`` d of a run's held travel, each
+    stretch closed at its end (the first also at its start)."""
+    if (curve := held_curve(args, hold)) is None:
+        return []
+    x, q = curve
+    stretch = np.maximum(np.ceil((x - x[0]) / STRETCH - 1e-6).astype(int) - 1, 0)
+    return [float(q[stretch == k].mean()) for k in np.unique(stretch)]
 
 
 def hold_trend_table(rows) -> str:
-    """Markdown table of :func:`hold_trend` for the held runs ``rows`` (of :func:`held_runs`)."""
-    body = [[a["volumetric_strain"], mesh, f"{1e3 * h['s_hold']:.2f} mm", f"{100 * trend:+.1f} %"]
-            for _, a, h, mesh in rows if (trend := hold_trend(a, h)) is not None]
-    head = ["strain", "refined strip", "held sinkage", "Q_V trend over the held steps, per d of travel"]
+    """Markdown table of :func:`hold_trend` and :func:`held_stretches` for the held runs ``rows``
+    (of :func:`held_runs`)."""
+    body = []
+    for _, a, h, mesh in rows:
+        if (trend := hold_trend(a, h)) is None:
+            continue
+        x = held_curve(a, h)[0]
+        body.append([a["volumetric_strain"], mesh, f"{1e3 * h['s_hold']:.2f} mm", f"{100 * trend:+.1f} %",
+                     f"{x[0]:.1f}-{x[-1]:.1f} d", " / ".join(f"{q / 1e3:.1f}" for q in held_stretches(a, h)) + " kN"])
+    head = ["strain", "refined strip", "held sinkage", "Q_V trend over the held steps, per d of travel",
+            "held travel", f"Q_V per {STRETCH:g} d of it"]
     return _markdown(head, body) if body else ""
 
 

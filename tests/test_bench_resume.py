@@ -464,8 +464,9 @@ def test_sinkage_at_load_skips_repeats_and_flat_curves(benchmarks, tmp_path, cap
 @pytest.mark.serial
 def test_held_trend_is_the_slope_over_the_held_steps(benchmarks, tmp_path, capsys):
     """The trend of a held run is the straight-line slope of Q_V over the steps after half a diameter
-    of holding, per diameter of travel and relative to their mean; the ramp and the first half
-    diameter of holding do not count, and a run without its curve gets no row."""
+    of holding, per diameter of travel and relative to their mean, and its Q_V is averaged per
+    0.2 d of held travel; the ramp and the first half diameter of holding do not count, and a run
+    without its curve gets no row."""
     protocols = benchmarks[0].protocols
     d = protocols.D
     x = np.linspace(0.0, 1.2 * d, 49)
@@ -480,7 +481,11 @@ def test_held_trend_is_the_slope_over_the_held_steps(benchmarks, tmp_path, capsy
     assert protocols.main(["--table"] + [str(p) for p in paths]) == 0
     trend = capsys.readouterr().out.split("\n\n")[-1]
     rows = [line for line in trend.splitlines() if line.startswith("| cell-average")]
-    assert rows == ["| cell-average | 2x across the path | 30.00 mm | +10.0 % |"]
+    assert rows == ["| cell-average | 2x across the path | 30.00 mm | +10.0 % | 1.0-1.2 d | 100.0 kN |"]
+    x = np.linspace(0.0, 1.6 * d, 65)     # held on to 1.6 d: three stretches, each closed at its end
+    q = np.where(x < 1.0 * d, 50e3 * x / d, 100e3 * (1.0 + 0.1 * (x / d - 1.1)))
+    longer = {"curve": [(xi, 0.03, qi, 0.0) for xi, qi in zip(x, q)]}
+    assert protocols.held_stretches(saved["args"], longer) == pytest.approx([100e3, 102.125e3, 104.125e3])
 
 
 def test_held_run_reads_the_load_only_near_its_ramp(benchmarks):
