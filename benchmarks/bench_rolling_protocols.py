@@ -433,21 +433,16 @@ def held_curve(args: dict, hold: dict) -> tuple[np.ndarray, np.ndarray] | None:
     return (x[held] / D, q[held]) if held.sum() >= 3 else None
 
 
-def hold_trend(args: dict, hold: dict) -> float | None:
-    """How fast Q_V still moves over the held steps of a run: the slope of a straight line through
-    them per wheel diameter of travel, relative to their mean (about 0 once steady)."""
-    if (curve := held_curve(args, hold)) is None:
-        return None
-    x, q = curve
+def hold_trend(x: np.ndarray, q: np.ndarray) -> float:
+    """How fast Q_V still moves over the held steps (``x`` in d, ``q`` of :func:`held_curve`): the
+    slope of a straight line through them per wheel diameter of travel, relative to their mean
+    (about 0 once steady)."""
     return float(np.polyfit(x, q, 1)[0] / q.mean())
 
 
-def held_stretches(args: dict, hold: dict) -> list[float]:
-    """Mean Q_V (N) over successive stretches of ``STRETCH`` d of a run's held travel, each
-    stretch closed at its end (the first also at its start)."""
-    if (curve := held_curve(args, hold)) is None:
-        return []
-    x, q = curve
+def held_stretches(x: np.ndarray, q: np.ndarray) -> list[float]:
+    """Mean Q_V (N) over successive stretches of ``STRETCH`` d of the held travel (``x``, ``q`` of
+    :func:`held_curve`), each stretch closed at its end (the first also at its start)."""
     stretch = np.maximum(np.ceil((x - x[0]) / STRETCH - 1e-6).astype(int) - 1, 0)
     return [float(q[stretch == k].mean()) for k in np.unique(stretch)]
 
@@ -457,11 +452,11 @@ def hold_trend_table(rows) -> str:
     (of :func:`held_runs`)."""
     body = []
     for _, a, h, mesh in rows:
-        if (trend := hold_trend(a, h)) is None:
+        if (curve := held_curve(a, h)) is None:
             continue
-        x = held_curve(a, h)[0]
-        body.append([a["volumetric_strain"], mesh, f"{1e3 * h['s_hold']:.2f} mm", f"{100 * trend:+.1f} %",
-                     f"{x[0]:.1f}-{x[-1]:.1f} d", " / ".join(f"{q / 1e3:.1f}" for q in held_stretches(a, h)) + " kN"])
+        x, q = curve
+        body.append([a["volumetric_strain"], mesh, f"{1e3 * h['s_hold']:.2f} mm", f"{100 * hold_trend(x, q):+.1f} %",
+                     f"{x[0]:.1f}-{x[-1]:.1f} d", " / ".join(f"{v / 1e3:.1f}" for v in held_stretches(x, q)) + " kN"])
     head = ["strain", "refined strip", "held sinkage", "Q_V trend over the held steps, per d of travel",
             "held travel", f"Q_V per {STRETCH:g} d of it"]
     return _markdown(head, body) if body else ""

@@ -477,7 +477,7 @@ def test_held_trend_is_the_slope_over_the_held_steps(benchmarks, tmp_path, capsy
     saved["args"]["ramp"] = 0.5
     saved["results"][0]["hold"]["curve"] = [(xi, 0.03, qi, 0.0) for xi, qi in zip(x, q)]
     paths[0].write_text(json.dumps(saved))
-    assert protocols.hold_trend(saved["args"], saved["results"][0]["hold"]) == pytest.approx(0.1)
+    assert protocols.hold_trend(*protocols.held_curve(saved["args"], saved["results"][0]["hold"])) == pytest.approx(0.1)
     assert protocols.main(["--table"] + [str(p) for p in paths]) == 0
     trend = capsys.readouterr().out.split("\n\n")[-1]
     rows = [line for line in trend.splitlines() if line.startswith("| cell-average")]
@@ -485,7 +485,8 @@ def test_held_trend_is_the_slope_over_the_held_steps(benchmarks, tmp_path, capsy
     x = np.linspace(0.0, 1.6 * d, 65)     # held on to 1.6 d: three stretches, each closed at its end
     q = np.where(x < 1.0 * d, 50e3 * x / d, 100e3 * (1.0 + 0.1 * (x / d - 1.1)))
     longer = {"curve": [(xi, 0.03, qi, 0.0) for xi, qi in zip(x, q)]}
-    assert protocols.held_stretches(saved["args"], longer) == pytest.approx([100e3, 102.125e3, 104.125e3])
+    assert protocols.held_stretches(*protocols.held_curve(saved["args"], longer)) == pytest.approx(
+        [100e3, 102.125e3, 104.125e3])
 
 
 def test_held_run_reads_the_load_only_near_its_ramp(benchmarks):
