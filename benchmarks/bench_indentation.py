@@ -61,14 +61,16 @@ def case_soil(n):
 
 
 def run(comm, accuracy, mat, d, b, gamma, mu, s_end=0.1, linear_solver="auto", verbose=False, fixed_steps=0,
-        volumetric_strain=DEFAULT_VOLUMETRIC_STRAIN, checkpoint=None, petsc_options=None, step=0.0, block=None):
-    """One push on the ``accuracy`` preset (or that many elements per d), on ``block`` (a ``SoilBlock``;
+        volumetric_strain=DEFAULT_VOLUMETRIC_STRAIN, checkpoint=None, petsc_options=None, step=0.0, block=None,
+        hexahedra=False):
+    """One push on the ``accuracy`` preset (or that many elements per d; with ``hexahedra`` a block of
+    Q2 hexahedra of that many elements per d in every direction), on ``block`` (a ``SoilBlock``;
     default the reference quarter block); ``step`` (s/d, > 0): every step that long (a failed step is cut inside it);
     with ``checkpoint`` (a directory) the state is written at every reading stop and a run finding
     one there continues from it (same mesh and path, any number of ranks)."""
     t0 = time.perf_counter()
     mesh = (MeshOptions.from_accuracy(d, accuracy) if accuracy in ACCURACY_REFINEMENT
-            else MeshOptions.from_refinement(d, float(accuracy)))
+            else MeshOptions.from_refinement(d, float(accuracy), hexahedra=hexahedra))
     tm = build_soil_block(comm, block or indentation_block(d), mesh)
     ind = WheelIndentation(tm, CylinderWheel(d, b, b / 12), mat, gamma=gamma, friction=mu,
                            linear_solver=linear_solver, volumetric_strain=volumetric_strain,
@@ -151,6 +153,8 @@ def main():
     ap.add_argument("--step", type=float, default=0.0,
                     help="equal steps of this s/d for every preset (a failed step is cut inside it)")
     add_volumetric_strain(ap)
+    ap.add_argument("--hexahedra", action="store_true",
+                    help="Q2 hexahedra, --accuracy in elements per d in every direction (B-bar: Q2-P1)")
     ap.add_argument("--checkpoint", default=None,
                     help="directory: write each run's state at every reading stop and continue a run from "
                          "there when it is started again (long accurate runs over several sittings)")
@@ -160,6 +164,8 @@ def main():
     args = ap.parse_args()
     if args.step < 0 or (args.step and args.fixed_steps):
         ap.error("--step: a positive s/d, not together with --fixed-steps")
+    if args.hexahedra and any(acc in ACCURACY_REFINEMENT for acc in args.accuracy):
+        ap.error("--hexahedra: give --accuracy as elements per d (the presets mesh tetrahedra)")
     petsc = dict(kv.split("=", 1) for kv in args.petsc_option)
     comm = MPI.COMM_WORLD
     if args.solve_cost:
@@ -177,9 +183,11 @@ def main():
         for acc in args.accuracy:
             ckpt = None if args.checkpoint is None else (
                 pathlib.Path(args.checkpoint) / f"{name.replace(' ', '').replace('=', '')}-{acc}-{args.volumetric_strain}"
-                f"-{f'step{args.step:g}' if args.step else f'fixed{args.fixed_steps}'}-{args.linear_solver[0]}")
+                f"-{f'step{args.step:g}' if args.step else f'fixed{args.fixed_steps}'}-{args.linear_solver[0]}"
+                f"{'-hexahedra' if args.hexahedra else ''}")
             res = run(comm, acc, mat, d, b, gamma, mu, args.s_end, args.linear_solver[0], args.verbose,
-                      args.fixed_steps, args.volumetric_strain, ckpt, petsc, args.step)
+                      args.fixed_steps, args.volumetric_strain, ckpt, petsc, args.step, hexahedra=args.hexahedra)
+            res["hexahedra"] = args.hexahedra
             res["name"] = name
             res["bearing_capacity_QV"] = {f"{r:g}": float(wheel_forces(r * d, Wheel(d, b), Soil(c, phi, gamma),
                                                                        Options(mode="indentation")).QV) for r in STOPS}

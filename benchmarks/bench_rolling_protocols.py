@@ -148,17 +148,21 @@ def constant_load(comm, mu, args):
     return out
 
 
+#: fewest steps a mean over held or late rolled steps is taken from (fewer: no figure)
+MIN_STEPS = 3
+
+
 def settled(curve, load: float, from_travel: float) -> dict | None:
     """Statistics of the rolled steps at the load (not the press or the lift-off) of a
     constant-load ``curve`` [(travel, sinkage, Q_V, Q_H)] from ``from_travel`` (m) on: mean and
     standard deviation of the sinkage and of Q_H, mean |ds/dx|, and Q_H at ds/dx = 0 from a
-    least-squares line of Q_H against the step's slope ds/dx (None: fewer than 3 steps)."""
+    least-squares line of Q_H against the step's slope ds/dx (None: fewer than ``MIN_STEPS`` steps)."""
     x, s, q, qh = np.array(curve, dtype=float).reshape(-1, 4).T
     on = (q > 0.99 * load) & (x > 0)
     x, s, qh = x[on], s[on], qh[on]
     slope = np.diff(s) / np.diff(x)
     late = x[1:] >= from_travel
-    if late.sum() < 3:
+    if late.sum() < MIN_STEPS:
         return None
     s, qh, slope = s[1:][late], qh[1:][late], slope[late]
     return {"from_travel": from_travel, "steps": len(s), "sinkage_mean": float(s.mean()),
@@ -213,7 +217,7 @@ def continuous(comm, mu, args, s_hold=None):
         # the steady curve carries the load: s_hold + (load - Q_hold) / (dQ_V/ds over the ramp's last half)
         held = held_steps(x, args.ramp)
         late = (x >= 0.5 * args.ramp * D) & (x < args.ramp * D)
-        if held.sum() >= 3 and late.sum() >= 3:
+        if held.sum() >= MIN_STEPS and late.sum() >= MIN_STEPS:
             slope = float(np.polyfit(s[late], q[late], 1)[0])
             q_hold = float(q[held].mean())
             out.update(QV_hold=q_hold, QV_hold_std=float(q[held].std()), QH_hold=float(qh[held].mean()),
@@ -425,12 +429,12 @@ STRETCH = 0.2
 
 def held_curve(args: dict, hold: dict) -> tuple[np.ndarray, np.ndarray] | None:
     """Travel (in d) and Q_V (N) of the held steps of a saved run (those averaged into
-    ``QV_hold``), or None for a run without its kept curve, a ramp or three held steps."""
+    ``QV_hold``), or None for a run without its kept curve, a ramp or ``MIN_STEPS`` held steps."""
     if not hold.get("curve") or not args.get("ramp"):
         return None
     x, q = np.array([(step[0], step[2]) for step in hold["curve"]]).T
     held = held_steps(x, args["ramp"])
-    return (x[held] / D, q[held]) if held.sum() >= 3 else None
+    return (x[held] / D, q[held]) if held.sum() >= MIN_STEPS else None
 
 
 def hold_trend(x: np.ndarray, q: np.ndarray) -> float:
