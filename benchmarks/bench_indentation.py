@@ -68,6 +68,9 @@ def run(comm, accuracy, mat, d, b, gamma, mu, s_end=0.1, linear_solver="auto", v
     default the reference quarter block); ``step`` (s/d, > 0): every step that long (a failed step is cut inside it);
     with ``checkpoint`` (a directory) the state is written at every reading stop and a run finding
     one there continues from it (same mesh and path, any number of ranks)."""
+    if hexahedra and accuracy in ACCURACY_REFINEMENT:
+        raise ValueError(f"hexahedra: give accuracy as elements per d, not the preset {accuracy!r} "
+                         "(the presets mesh tetrahedra)")
     t0 = time.perf_counter()
     mesh = (MeshOptions.from_accuracy(d, accuracy) if accuracy in ACCURACY_REFINEMENT
             else MeshOptions.from_refinement(d, float(accuracy), hexahedra=hexahedra))

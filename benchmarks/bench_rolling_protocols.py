@@ -203,7 +203,8 @@ def continuous(comm, mu, args, s_hold=None):
         done, ramp = roll.position - roll.x_start, (args.ramp or args.travel) * D
         if args.travel * D - done > 1e-9 * D:     # the rest of the roll and of its ramp
             roll.roll(args.travel * D - done, s_end, ramp=ramp - done if ramp > done + 1e-9 * D else None,
-                      dx=1e-3 * args.roll_step if args.roll_step else None, on_step=on_step)
+                      dx=1e-3 * args.roll_step if args.roll_step else None, on_step=on_step,
+                      predictor=args.predictor)
     except SolverDivergedError as err:
         out["status"] = f"failed: {err}"
     rolled = [st for st in roll.steps if st.travel > 0]
@@ -285,7 +286,9 @@ def resume(roll: WheelRolling, ckpt: pathlib.Path | None, args) -> float | None:
     if found is None:
         return None
     saved = json.loads((found / "args.json").read_text())
-    changed = [k for k, v in vars(args).items() if k not in _NOT_THE_PATH and saved.get(k) != v]
+    defaults = parser()          # an argument added after the checkpoint was written: its default
+    changed = [k for k, v in vars(args).items()
+               if k not in _NOT_THE_PATH and saved.get(k, defaults.get_default(k)) != v]
     if changed:
         if roll.comm.rank == 0:
             print(f"--checkpoint: {ckpt} was written with other {', '.join('--' + k.replace('_', '-') for k in changed)}"
@@ -322,6 +325,8 @@ def parser() -> argparse.ArgumentParser:
                    help="constant-load travel step, mm (0: the solver's default, WheelRolling.travel_step)")
     p.add_argument("--roll-step", type=float, default=0.0,
                    help="continuous travel step, mm (0: the solver's default, WheelRolling.travel_step)")
+    p.add_argument("--predictor", choices=("none", "extrapolate"), default="none",
+                   help="continuous and held rolling: Newton's start in each travel step (StepControl.predictor)")
     p.add_argument("--steady-rtol", type=float, default=0.02)
     p.add_argument("--steady-min-travel", type=float, default=STEADY_MIN_TRAVEL,
                    help="constant load: look for steady state after this travel (d) on the test soil")

@@ -462,22 +462,24 @@ class WheelRolling:
 
     def roll(self, travel: float, s_target: float, ramp: float | None = None, dx: float | None = None,
              on_step: Callable[[RollingStep], None] | None = None, control: StepControl | None = None,
-             on_start_over: Callable[[int], None] | None = None) -> list[RollingStep]:
+             on_start_over: Callable[[int], None] | None = None, predictor: str = "none") -> list[RollingStep]:
         """Translate the wheel by ``travel`` (m) in +x, its sinkage ramped linearly from the current
         value to ``s_target`` over the first ``ramp`` metres of travel (default: all of it), then
         held.  ``dx``: travel step, m (default :attr:`travel_step`, which samples the
         element-passing ripple about five times per element; on tetrahedra it grows to twice
         ``dx`` after easy steps, on hexahedra it stays; cut on divergence and grown back).  After a failure the roll
         starts over relaxed (see ``travel_relaxation_fallback``): the steps it rolled are dropped,
-        and ``on_start_over(n)`` is told how many.  Returns all steps; ``SolverDivergedError`` (state at the last converged
-        step) on failure."""
+        and ``on_start_over(n)`` is told how many.  ``predictor``: Newton's start in each step with the
+        default ``control`` (:class:`StepControl`; ``"extrapolate"`` took 25-30 % more Newton
+        iterations than ``"none"`` on held rolling, docs/benchmarks.md, "Rolling cost").  Returns all
+        steps; ``SolverDivergedError`` (state at the last converged step) on failure."""
         if not travel > 0:
             raise ValueError(f"travel must be > 0, got {travel}")
         ramp = travel if ramp is None else float(ramp)
         if not ramp > 0:
             raise ValueError(f"ramp must be > 0, got {ramp}")
         if control is None:
-            c = dict(DEFAULT_ROLL_CONTROL)
+            c = dict(DEFAULT_ROLL_CONTROL, predictor=predictor)
             h = (self.travel_step if dx is None else dx) / c["dt"]   # the contact element's diameter on tetrahedra
             if not h > 0:
                 raise ValueError(f"dx must be > 0, got {dx}")

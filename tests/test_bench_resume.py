@@ -568,6 +568,32 @@ def test_held_run_continues_from_its_checkpoint(benchmarks, tmp_mpi_path, monkey
     np.testing.assert_allclose(np.array(b["curve"]), np.array(a["curve"]), rtol=1e-8, atol=1e-9)
 
 
+def test_held_run_resumes_a_checkpoint_written_before_an_argument_existed(benchmarks, tmp_path, capsys):
+    """A checkpoint whose ``args.json`` lacks an argument added since (here ``--predictor``) is
+    continued when that argument is at its default, and refused (exit 2, naming it) otherwise."""
+    protocols = benchmarks[0].protocols
+    ckpt = tmp_path / "ckpt"
+    ckpt.mkdir()
+    args = protocols.parser().parse_args(["--hold-sinkage", "20"])
+    saved = {k: v for k, v in vars(args).items() if k not in protocols._NOT_THE_PATH and k != "predictor"}
+    (ckpt / "args.json").write_text(json.dumps(saved))
+
+    class Roll:
+        comm, steps, position, x_start, newton_iterations = MPI.COMM_SELF, [], 0.0, 0.0, 0
+        read = []
+
+        def read_checkpoint(self, found):
+            self.read.append(found)
+
+    roll = Roll()
+    assert protocols.resume(roll, ckpt, args) == 0.0 and roll.read == [ckpt]
+    args.predictor = "extrapolate"
+    with pytest.raises(SystemExit) as exit_info:
+        protocols.resume(roll, ckpt, args)
+    assert exit_info.value.code == 2 and "--predictor" in capsys.readouterr().err
+    assert roll.read == [ckpt]
+
+
 def test_indentation_push_continues_from_its_last_complete_checkpoint(benchmarks, monkeypatch, tmp_mpi_path, comm):
     """The indentation benchmark writes its checkpoint whole at each reading stop: killed between
     the two renames that put the next version in place, it continues from the previous one and

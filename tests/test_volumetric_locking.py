@@ -287,3 +287,12 @@ def test_wheel_on_hexahedra_locks_pointwise_not_with_b_bar(comm, monkeypatch):
     assert hex_cells < tet_cells / 4, (hex_cells, tet_cells)          # a different, hexahedral mesh
     assert abs(bbar / tets - 1) < 0.05, (bbar, tets)
     assert plain > 1.10 * bbar, (plain, bbar)
+
+
+def test_indentation_benchmark_refuses_hexahedra_on_a_preset(comm, monkeypatch):
+    """The presets mesh tetrahedra: hexahedra with a preset name is refused, not silently ignored."""
+    monkeypatch.syspath_prepend(str(pathlib.Path(__file__).parents[1] / "benchmarks"))
+    import bench_indentation
+    soil = bench_indentation.case_soil(5)[:5]
+    with pytest.raises(ValueError, match="hexahedra.*preset 'fast'"):
+        bench_indentation.run(comm, "fast", *soil, s_end=0.01, hexahedra=True)
