@@ -519,7 +519,7 @@ def test_held_run_logs_a_line_per_step_with_progress(benchmarks, monkeypatch, ca
         def press(self, sinkage):
             pass
 
-        def roll(self, travel, s_target, ramp=None, dx=None, on_step=None):
+        def roll(self, travel, s_target, ramp=None, dx=None, on_step=None, predictor="none"):
             on_step(RollingStep(1, 0.5 * travel, s_target, 9e4, 1e4, 0.0, 0.0, 0.0, 0.1, 0.0, 3, 3, 0, 0, 1.0))
 
     monkeypatch.setattr(protocols, "WheelRolling", Rolling)
