@@ -33,8 +33,10 @@ last checkpoint, and with other arguments it stops (exit 2) naming them.
 Prints s_cl, s_cont and their difference (the agreement criterion is 5 %), Q_H of both,
 the friction effect on the steady sinkage (mu vs the first mu), wall times, steps and linear solves.
 ``--table`` prints the held Q_V of saved runs as a Markdown table without solving, each change
-against the same strain's mesh twice as coarse along one axis (mesh convergence at a held sinkage),
-and, for each mesh held at two sinkages, the sinkage at which the steady Q_V(s) carries the load.
+against the same strain's mesh twice as coarse along one axis (mesh convergence at a held sinkage)
+and each pointwise Q_V against B-bar's on its mesh, and, for each mesh held at two sinkages, the
+sinkage at which the steady Q_V(s) carries the load. Runs of other soils, friction or travel are
+compared only among themselves, in rows that name what sets them apart.
 """
 from __future__ import annotations
 
@@ -359,10 +361,30 @@ def parser() -> argparse.ArgumentParser:
     return p
 
 
+#: arguments that set a held run's mesh and strain (the table's columns), and those only the
+#: constant-load run reads; every other argument of the path, with the run's friction, is the
+#: held run's scene, and only runs of one scene are compared
+_NOT_THE_SCENE = ("volumetric_strain", "refinement", "accuracy", "cross_refinement", "path_refinement",
+                  "depth_refinement", "roll_step", "refined_depth", "hold_sinkage", "hold", "mu",
+                  "length", "stiff", "cl_travel", "travel_step", "steady_rtol", "steady_min_travel", "settled",
+                  "s_end")
+
+
+def _scene(args: dict, mu: float) -> str:
+    """The scene of a held run saved with ``args`` at friction ``mu``, as sorted JSON (arguments
+    added after the run was saved count at their defaults)."""
+    defaults = parser()
+    keys = {k for k in args if k not in _NOT_THE_PATH + _NOT_THE_SCENE}
+    keys |= {a.dest for a in defaults._actions if a.dest not in _NOT_THE_PATH + _NOT_THE_SCENE + ("help",)}
+    scene = {k: args.get(k, defaults.get_default(k)) for k in keys}
+    scene["cont_length"] = scene["cont_length"] or args.get("length", defaults.get_default("length"))
+    return json.dumps(dict(scene, mu=mu), sort_keys=True)
+
+
 def held_runs(paths) -> list:
     """The held runs saved in ``paths`` (JSON files of this script) as (key, args, hold, mesh name),
-    sorted by key = (strain, elements per d, held sinkage, refinement across, along, in depth,
-    travel step in mm (0: the solver's default), depth of the refined strip in d)."""
+    sorted by key = (scene of :func:`_scene`, strain, elements per d, held sinkage, refinement across,
+    along, in depth, travel step in mm (0: the solver's default), depth of the refined strip in d)."""
     rows = []
     for path in paths:
         with open(path) as f:
@@ -375,11 +397,29 @@ def held_runs(paths) -> list:
             step, strip = a.get("roll_step", 0.0), a.get("refined_depth", REFINED_DEPTH)
             shorter = [f"{a.get(k, 1.0):g}x {axis}" for k, axis in SHORTER.items() if a.get(k, 1.0) != 1.0]
             mesh = ", ".join(shorter) or "isotropic"
-            rows.append(((a["volumetric_strain"], a["refinement"] or 0.0, h["s_hold"], a.get("cross_refinement", 1.0),
-                          a.get("path_refinement", 1.0), a.get("depth_refinement", 1.0), step, strip), a, h,
+            rows.append(((_scene(a, h["mu"]), a["volumetric_strain"], a["refinement"] or 0.0, h["s_hold"],
+                          a.get("cross_refinement", 1.0), a.get("path_refinement", 1.0),
+                          a.get("depth_refinement", 1.0), step, strip), a, h,
                          mesh + (f" to {strip:g} d deep" if strip != REFINED_DEPTH else "")
                          + (f", {step:g} mm steps" if step else "")))
     return sorted(rows, key=lambda row: row[0])
+
+
+def scene_column(rows) -> tuple[list, dict]:
+    """The tables' scene column for ``rows``: its head and, per scene (of :func:`_scene`), its cell,
+    the arguments in which the scene differs from the others, as options (friction aside, which
+    has its column); no column (empty lists) for one scene."""
+    scenes = {key[0]: json.loads(key[0]) for key, *_ in rows}
+    differ = sorted(k for k in set().union(*scenes.values()) if k != "mu"
+                    and len({json.dumps(s.get(k)) for s in scenes.values()}) > 1)
+    cells = {key: [", ".join(f"--{k.replace('_', '-')} {_option(s.get(k))}" for k in differ)] * bool(differ)
+             for key, s in scenes.items()}
+    return ["scene"] * bool(differ), cells
+
+
+def _option(value) -> str:
+    return " ".join(map(_option, value)) if isinstance(value, list) else f"{value:g}" if isinstance(
+        value, (int, float)) and not isinstance(value, bool) else str(value)
 
 
 def coarser_meshes(refinements: tuple) -> list:
@@ -411,19 +451,26 @@ def _markdown(head, body) -> str:
 
 def hold_table(rows) -> str:
     """Markdown table of the held runs ``rows`` (of :func:`held_runs`); each change is against the run
-    of the same strain, elements per d and held sinkage on the first of :func:`coarser_meshes` that
-    was run, named in the column "against"."""
+    of the same scene, strain, elements per d and held sinkage on the first of
+    :func:`coarser_meshes` that was run, named in the column "against"; a strain other than
+    cell-average is also compared with the cell-average run of the same scene and mesh.  Runs of
+    more than one scene get a column naming the arguments that tell them apart."""
     dofs = all("dofs" in h for _, _, h, _ in rows) and bool(rows)   # not kept by runs of earlier versions
-    head = ["strain", "elements / d", "refined strip", "μ", "held sinkage"] + ["dofs"] * dofs + [
-        "Q_V (± std)", "change", "against", "Q_H", "steps", "Newton its", "cuts", "wall time"]
+    scene_head, scene = scene_column(rows)
+    head = scene_head + ["strain", "elements / d", "refined strip", "μ", "held sinkage"] + ["dofs"] * dofs + [
+        "Q_V (± std)", "change", "against", "against cell-average", "Q_H", "steps", "Newton its", "cuts",
+        "wall time"]
     held = {key: (h["QV_hold"], mesh) for key, _, h, mesh in rows}
     body = []
     for key, a, h, mesh in rows:
         q = h["QV_hold"]
-        change, against = against_coarser(q, held, key[:3], key[3:])
-        body.append([a["volumetric_strain"], f"{a['refinement']:g}" if a["refinement"] else a["accuracy"],
-                     mesh, f"{h['mu']:g}", f"{1e3 * h['s_hold']:.2f} mm"] + [str(h.get("dofs", ""))] * dofs + [
-            f"{q / 1e3:.1f} ± {h['QV_hold_std'] / 1e3:.1f} kN", change, against, f"{h['QH_hold'] / 1e3:.1f} kN",
+        change, against = against_coarser(q, held, key[:4], key[4:])
+        bbar = held.get((key[0], "cell-average") + key[2:]) if key[1] != "cell-average" else None
+        body.append(scene[key[0]] + [
+            a["volumetric_strain"], f"{a['refinement']:g}" if a["refinement"] else a["accuracy"],
+            mesh, f"{h['mu']:g}", f"{1e3 * h['s_hold']:.2f} mm"] + [str(h.get("dofs", ""))] * dofs + [
+            f"{q / 1e3:.1f} ± {h['QV_hold_std'] / 1e3:.1f} kN", change, against,
+            f"{100 * (q / bbar[0] - 1):+.1f} %" if bbar else "", f"{h['QH_hold'] / 1e3:.1f} kN",
             str(h["steps"]), str(h["newton_iterations"]), str(h["cuts"]), f"{h['time_s']:.0f} s"])
     return _markdown(head, body)
 
@@ -459,15 +506,17 @@ def held_stretches(x: np.ndarray, q: np.ndarray) -> list[float]:
 def hold_trend_table(rows) -> str:
     """Markdown table of :func:`hold_trend` and :func:`held_stretches` for the held runs ``rows``
     (of :func:`held_runs`)."""
+    scene_head, scene = scene_column(rows)
     body = []
-    for _, a, h, mesh in rows:
+    for key, a, h, mesh in rows:
         if (curve := held_curve(a, h)) is None:
             continue
         x, q = curve
-        body.append([a["volumetric_strain"], mesh, f"{1e3 * h['s_hold']:.2f} mm", f"{100 * hold_trend(x, q):+.1f} %",
-                     f"{x[0]:.1f}-{x[-1]:.1f} d", " / ".join(f"{v / 1e3:.1f}" for v in held_stretches(x, q)) + " kN"])
-    head = ["strain", "refined strip", "held sinkage", "Q_V trend over the held steps, per d of travel",
-            "held travel", f"Q_V per {STRETCH:g} d of it"]
+        body.append(scene[key[0]] + [a["volumetric_strain"], mesh, f"{1e3 * h['s_hold']:.2f} mm",
+                                     f"{100 * hold_trend(x, q):+.1f} %", f"{x[0]:.1f}-{x[-1]:.1f} d",
+                                     " / ".join(f"{v / 1e3:.1f}" for v in held_stretches(x, q)) + " kN"])
+    head = scene_head + ["strain", "refined strip", "held sinkage", "Q_V trend over the held steps, per d of travel",
+                         "held travel", f"Q_V per {STRETCH:g} d of it"]
     return _markdown(head, body) if body else ""
 
 
@@ -478,13 +527,14 @@ def sinkage_at_load(rows) -> str:
     """Markdown table of the steady sinkage that carries the load, for each mesh held at two or more
     sinkages: the power law Q_V = Q_1 (s / s_1)^n through the two held points nearest the load,
     solved for Q_V = load (the constant-load steady state, read off the steady force-sinkage curve).
-    Each change is against the same strain's first of :func:`coarser_meshes`. Runs repeated at
-    one sinkage count once (the last read); a mesh whose force does not grow with sinkage between
+    Each change is against the same scene's and strain's first of :func:`coarser_meshes`. Runs
+    repeated at one sinkage count once (the last read); a mesh whose force does not grow with sinkage between
     the two points, or whose power law reaches the load more than ``READ_MARGIN`` times beyond
     them, is reported as such, without a sinkage."""
+    scene_head, scene = scene_column(rows)
     meshes = {}
     for key, a, h, mesh in rows:
-        meshes.setdefault((key[:2], key[3:]), (a, mesh, {}))[2][h["s_hold"]] = h["QV_hold"]
+        meshes.setdefault((key[:3], key[4:]), (a, mesh, {}))[2][h["s_hold"]] = h["QV_hold"]
     found = {}
     body = []
     for (group, refinements), (a, mesh, by_sinkage) in sorted(meshes.items(), key=lambda item: item[0]):
@@ -504,10 +554,11 @@ def sinkage_at_load(rows) -> str:
             sinkage = ("not read: Q_V does not grow with s" if s is None else
                        f"not read: the load lies {'below' if s < lo else 'above'} the held sinkages")
             change, against = "", ""
-        body.append([a["volumetric_strain"], f"{a['refinement']:g}" if a["refinement"] else a["accuracy"], mesh,
+        body.append(scene[group[0]] + [
+                     a["volumetric_strain"], f"{a['refinement']:g}" if a["refinement"] else a["accuracy"], mesh,
                      " / ".join(f"{1e3 * p[0]:.2f}" for p in points) + " mm", f"{n:.3f}",
                      f"{a['load']:g} kN", sinkage, change, against])
-    head = ["strain", "elements / d", "refined strip", "held sinkages", "n = d ln Q_V / d ln s", "load",
+    head = scene_head + ["strain", "elements / d", "refined strip", "held sinkages", "n = d ln Q_V / d ln s", "load",
             "sinkage at the load", "change", "against"]
     return _markdown(head, body) if body else ""
 

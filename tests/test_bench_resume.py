@@ -362,13 +362,15 @@ def test_rolling_cells_compares_stopped_runs_over_a_common_travel(monkeypatch, t
 
 
 def _held_run(path, strain: str, across: float, s_hold: float, q: float, depth: float = 1.0,
-              roll_step: float = 0.0, *, load: float, refined_depth: float = 0.4):
+              roll_step: float = 0.0, *, load: float, refined_depth: float = 0.4, mu: float = 0.0, **scene):
     """Write a held run of ``bench_rolling_protocols`` to ``path``: Q_V = ``q`` (N) held at ``s_hold`` (m)
     on the 6-per-d mesh refined ``across`` and in ``depth`` (the strip ``refined_depth`` d deep),
-    travel step ``roll_step`` (mm, 0: default), the load ``load`` (kN)."""
+    travel step ``roll_step`` (mm, 0: default), the load ``load`` (kN), friction ``mu`` and the
+    other arguments ``scene``."""
     args = {"volumetric_strain": strain, "refinement": 6.0, "accuracy": "fast", "cross_refinement": across,
-            "depth_refinement": depth, "roll_step": roll_step, "load": load, "refined_depth": refined_depth}
-    hold = {"mu": 0.0, "s_hold": s_hold, "QV_hold": q, "QV_hold_std": 1e3, "QH_hold": 1e4, "steps": 60,
+            "depth_refinement": depth, "roll_step": roll_step, "load": load, "refined_depth": refined_depth,
+            "mu": [mu], **scene}
+    hold = {"mu": mu, "s_hold": s_hold, "QV_hold": q, "QV_hold_std": 1e3, "QH_hold": 1e4, "steps": 60,
             "newton_iterations": 400, "cuts": 0, "time_s": 10.0}
     path.write_text(json.dumps({"args": args, "results": [{"hold": hold}, {"hold": None}]}))
     return path
@@ -390,7 +392,8 @@ def test_held_sinkage_table_compares_like_with_like(benchmarks, tmp_path, capsys
     assert [r.split(" | ")[2] for r in rows] == ["2x across the path"] * 2 + [
         "2x across the path, 2x in depth", "2x across the path, 2x in depth, 25.4 mm steps",
         "4x across the path", "8x across the path"]
-    assert rows[0].startswith("| cell-average") and "%" not in rows[0] and "%" not in rows[1]
+    assert rows[0].startswith("| cell-average") and "%" not in rows[0]
+    assert "|  |  | +11.1 % |" in rows[1]       # no coarser pointwise mesh; B-bar's on its mesh
     assert "| -1.0 % | 2x across the path |" in rows[2] and "dofs" not in rows[2]
     assert "| +5.1 % | 2x across the path, 2x in depth |" in rows[3]
     assert "| +10.0 % | 2x across the path |" in rows[4]
@@ -402,6 +405,33 @@ def test_held_sinkage_table_compares_like_with_like(benchmarks, tmp_path, capsys
     assert len(at_load) == 2 and f"| {n:.3f} | 105 kN | {coarse:.2f} mm |  |  |" in at_load[0]
     assert f"| {fine:.2f} mm | {100 * (fine / coarse - 1):+.1f} % | 2x across the path |" in at_load[1]
     assert "10.00 / 20.00 / 30.00 mm" in at_load[1]
+
+
+@pytest.mark.serial
+def test_held_table_keeps_scenes_apart_and_compares_the_strains(benchmarks, tmp_path, capsys):
+    """Runs of other soils, friction or travel are never compared with each other: each scene gets
+    its own changes, and a column names the arguments that tell the scenes apart (not those only
+    the constant-load run reads); each pointwise run is compared with B-bar on its scene's mesh."""
+    protocols = benchmarks[0].protocols
+    runs = (("cell-average", 4.0, 100e3, 0.0, 300.0), ("cell-average", 8.0, 99e3, 0.0, 300.0),
+            ("pointwise", 4.0, 110e3, 0.0, 300.0), ("pointwise", 8.0, 99e3, 0.0, 300.0),
+            ("cell-average", 4.0, 120e3, 0.8, 300.0), ("pointwise", 4.0, 150e3, 0.8, 300.0),
+            ("pointwise", 8.0, 140e3, 0.8, 300.0), ("cell-average", 4.0, 160e3, 0.8, 194.6))
+    paths = [_held_run(tmp_path / f"run{k}.json", strain, across, 0.03, q, load=133.5, mu=mu, yield_stress=qy,
+                       cl_travel=1.0 + k, ramp=0.5) for k, (strain, across, q, mu, qy) in enumerate(runs)]
+    assert protocols.main(["--table"] + [str(p) for p in paths]) == 0
+    held = capsys.readouterr().out.split("\n\n")[0].splitlines()
+    assert held[0].startswith("| scene | strain |") and "| against cell-average |" in held[0]
+    rows = {tuple(r.split(" | ")[i] for i in (0, 1, 3, 4)): r for r in held[2:]}
+    assert len(rows) == 8 and not any("--cl-travel" in r for r in rows)
+    clay, friction = "| --yield-stress 300", "0.8"
+    assert "| -1.0 % | 4x across the path |  |" in rows[(clay, "cell-average", "8x across the path", "0")]
+    assert "|  |  | +10.0 % |" in rows[(clay, "pointwise", "4x across the path", "0")]
+    assert "| -10.0 % | 4x across the path | +0.0 % |" in rows[(clay, "pointwise", "8x across the path", "0")]
+    assert "|  |  | +25.0 % |" in rows[(clay, "pointwise", "4x across the path", friction)]
+    # B-bar of this scene was not run on 8 across: no comparison with the other scene's
+    assert "| -6.7 % | 4x across the path |  |" in rows[(clay, "pointwise", "8x across the path", friction)]
+    assert "|  |  |  |" in rows[("| --yield-stress 194.6", "cell-average", "4x across the path", friction)]
 
 
 @pytest.mark.serial
@@ -471,10 +501,9 @@ def test_held_trend_is_the_slope_over_the_held_steps(benchmarks, tmp_path, capsy
     d = protocols.D
     x = np.linspace(0.0, 1.2 * d, 49)
     q = np.where(x < 1.0 * d, 50e3 * x / d, 100e3 * (1.0 + 0.1 * (x / d - 1.1)))   # +10 % per d when held
-    paths = [_held_run(tmp_path / f"run{k}.json", "cell-average", across, 0.03, 100e3, load=100.0)
+    paths = [_held_run(tmp_path / f"run{k}.json", "cell-average", across, 0.03, 100e3, load=100.0, ramp=0.5)
              for k, across in enumerate((2.0, 4.0))]
     saved = json.loads(paths[0].read_text())
-    saved["args"]["ramp"] = 0.5
     saved["results"][0]["hold"]["curve"] = [(xi, 0.03, qi, 0.0) for xi, qi in zip(x, q)]
     paths[0].write_text(json.dumps(saved))
     assert protocols.hold_trend(*protocols.held_curve(saved["args"], saved["results"][0]["hold"])) == pytest.approx(0.1)
