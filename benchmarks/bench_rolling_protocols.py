@@ -579,6 +579,9 @@ def main(argv=None) -> int:
     p = parser()
     args = p.parse_args(argv)
     if args.table:
+        missing = [path for path in args.table if not pathlib.Path(path).is_file()]
+        if missing:
+            p.error(f"--table: no such file: {missing[0]}")
         rows = held_runs(args.table)
         print(hold_table(rows))
         for table in (sinkage_at_load(rows), hold_trend_table(rows)):

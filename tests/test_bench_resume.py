@@ -432,6 +432,9 @@ def test_held_table_keeps_scenes_apart_and_compares_the_strains(benchmarks, tmp_
     # B-bar of this scene was not run on 8 across: no comparison with the other scene's
     assert "| -6.7 % | 4x across the path |  |" in rows[(clay, "pointwise", "8x across the path", friction)]
     assert "|  |  |  |" in rows[("| --yield-stress 194.6", "cell-average", "4x across the path", friction)]
+    with pytest.raises(SystemExit) as stop:          # a file that is not there: one line, status 2
+        protocols.main(["--table", str(paths[0]), str(tmp_path / "none.json")])
+    assert stop.value.code == 2 and "--table: no such file:" in capsys.readouterr().err
 
 
 @pytest.mark.serial
