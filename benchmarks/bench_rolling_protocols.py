@@ -112,7 +112,8 @@ def constant_load(comm, mu, args):
     mat = soil(args)
     tm = _block(comm, args, args.stiff)
     roll = WheelRolling(tm, CylinderWheel(D, B, B / 12), mat, gamma=GAMMA, friction=mu,
-                        volumetric_strain=args.volumetric_strain, **regularisation(args))
+                        volumetric_strain=args.volumetric_strain, volumetric_projection=args.volumetric_projection,
+                        **regularisation(args))
     roll.gravity_step()
     load = args.load * 1e3
     out = {"mu": mu, "cells": tm.stats.cells, "dofs": roll.n_dofs, "status": "ok"}
@@ -194,7 +195,8 @@ def continuous(comm, mu, args, s_hold=None):
     t0 = time.perf_counter()
     mat = soil(args)
     roll = WheelRolling(_block(comm, args, 0.0, args.cont_length), CylinderWheel(D, B, B / 12), mat, gamma=GAMMA,
-                        friction=mu, volumetric_strain=args.volumetric_strain, **regularisation(args))
+                        friction=mu, volumetric_strain=args.volumetric_strain,
+                        volumetric_projection=args.volumetric_projection, **regularisation(args))
     roll.gravity_step()
     out = {"mu": mu, "status": "ok", "s_hold": s_hold, "dofs": roll.n_dofs}
     s_end = args.s_end * D if s_hold is None else s_hold
@@ -344,6 +346,9 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--hold-sinkage", type=float, nargs="+",
                    help="with --skip-constant-load: the constant-load steady sinkage (mm) of each --mu to hold")
     add_volumetric_strain(p)
+    p.add_argument("--volumetric-projection", type=int, choices=(0, 1),
+                   help="with --hexahedra and cell-average: the degree of the per-cell projection of the "
+                        "volumetric strain (1, the default: Q2-P1; 0: the cell mean, Q2-P0)")
     p.add_argument("--relaxation-length", type=float, default=0.0,
                    help="Duvaut-Lions relaxation length of the soil, mm of travel (0: off)")
     p.add_argument("--fallbacks", action="store_true",
@@ -364,7 +369,7 @@ def parser() -> argparse.ArgumentParser:
 #: arguments that set a held run's mesh and strain (the table's columns), and those only the
 #: constant-load run reads; every other argument of the path, with the run's friction, is the
 #: held run's scene, and only runs of one scene are compared
-_NOT_THE_SCENE = ("volumetric_strain", "refinement", "accuracy", "cross_refinement", "path_refinement",
+_NOT_THE_SCENE = ("volumetric_strain", "volumetric_projection", "refinement", "accuracy", "cross_refinement", "path_refinement",
                   "depth_refinement", "roll_step", "refined_depth", "hold_sinkage", "hold", "mu",
                   "length", "stiff", "cl_travel", "travel_step", "steady_rtol", "steady_min_travel", "settled",
                   "s_end")
@@ -379,6 +384,12 @@ def _scene(args: dict, mu: float) -> str:
     scene = {k: args.get(k, defaults.get_default(k)) for k in keys}
     scene["cont_length"] = scene["cont_length"] or args.get("length", defaults.get_default("length"))
     return json.dumps(dict(scene, mu=mu), sort_keys=True)
+
+
+def strain_name(args: dict) -> str:
+    """The soil strain of a run saved with ``args``: its ``--volumetric-strain``, and for the cell
+    mean (``--volumetric-projection 0``) "cell mean" (the default projection, Q2-P1, is "cell-average")."""
+    return "cell mean" if args.get("volumetric_projection") == 0 else args["volumetric_strain"]
 
 
 def held_runs(paths) -> list:
@@ -397,7 +408,7 @@ def held_runs(paths) -> list:
             step, strip = a.get("roll_step", 0.0), a.get("refined_depth", REFINED_DEPTH)
             shorter = [f"{a.get(k, 1.0):g}x {axis}" for k, axis in SHORTER.items() if a.get(k, 1.0) != 1.0]
             mesh = ", ".join(shorter) or "isotropic"
-            rows.append(((_scene(a, h["mu"]), a["volumetric_strain"], a["refinement"] or 0.0, h["s_hold"],
+            rows.append(((_scene(a, h["mu"]), strain_name(a), a["refinement"] or 0.0, h["s_hold"],
                           a.get("cross_refinement", 1.0), a.get("path_refinement", 1.0),
                           a.get("depth_refinement", 1.0), step, strip), a, h,
                          mesh + (f" to {strip:g} d deep" if strip != REFINED_DEPTH else "")
@@ -467,7 +478,7 @@ def hold_table(rows) -> str:
         change, against = against_coarser(q, held, key[:4], key[4:])
         bbar = held.get((key[0], "cell-average") + key[2:]) if key[1] != "cell-average" else None
         body.append(scene[key[0]] + [
-            a["volumetric_strain"], f"{a['refinement']:g}" if a["refinement"] else a["accuracy"],
+            key[1], f"{a['refinement']:g}" if a["refinement"] else a["accuracy"],
             mesh, f"{h['mu']:g}", f"{1e3 * h['s_hold']:.2f} mm"] + [str(h.get("dofs", ""))] * dofs + [
             f"{q / 1e3:.1f} ± {h['QV_hold_std'] / 1e3:.1f} kN", change, against,
             f"{100 * (q / bbar[0] - 1):+.1f} %" if bbar else "", f"{h['QH_hold'] / 1e3:.1f} kN",
@@ -512,7 +523,7 @@ def hold_trend_table(rows) -> str:
         if (curve := held_curve(a, h)) is None:
             continue
         x, q = curve
-        body.append(scene[key[0]] + [a["volumetric_strain"], mesh, f"{1e3 * h['s_hold']:.2f} mm",
+        body.append(scene[key[0]] + [key[1], mesh, f"{1e3 * h['s_hold']:.2f} mm",
                                      f"{100 * hold_trend(x, q):+.1f} %", f"{x[0]:.1f}-{x[-1]:.1f} d",
                                      " / ".join(f"{v / 1e3:.1f}" for v in held_stretches(x, q)) + " kN"])
     head = scene_head + ["strain", "refined strip", "held sinkage", "Q_V trend over the held steps, per d of travel",
@@ -555,7 +566,7 @@ def sinkage_at_load(rows) -> str:
                        f"not read: the load lies {'below' if s < lo else 'above'} the held sinkages")
             change, against = "", ""
         body.append(scene[group[0]] + [
-                     a["volumetric_strain"], f"{a['refinement']:g}" if a["refinement"] else a["accuracy"], mesh,
+                     group[1], f"{a['refinement']:g}" if a["refinement"] else a["accuracy"], mesh,
                      " / ".join(f"{1e3 * p[0]:.2f}" for p in points) + " mm", f"{n:.3f}",
                      f"{a['load']:g} kN", sinkage, change, against])
     head = scene_head + ["strain", "elements / d", "refined strip", "held sinkages", "n = d ln Q_V / d ln s", "load",
@@ -596,6 +607,8 @@ def main(argv=None) -> int:
             p.error(f"--{name.replace('_', '-')}: must be >= 0 mm, got {getattr(args, name):g}")
     if args.checkpoint_every < 1:
         p.error(f"--checkpoint-every: must be >= 1 step, got {args.checkpoint_every}")
+    if args.volumetric_projection is not None and not (args.hexahedra and args.volumetric_strain == "cell-average"):
+        p.error("--volumetric-projection: applies to --hexahedra with --volumetric-strain cell-average")
     if args.hold_sinkage and len(args.hold_sinkage) != len(args.mu):
         p.error("--hold-sinkage: give one sinkage per --mu value")
     for i, mu in enumerate(args.mu):

@@ -438,6 +438,32 @@ def test_held_table_keeps_scenes_apart_and_compares_the_strains(benchmarks, tmp_
 
 
 @pytest.mark.serial
+def test_held_table_names_the_cell_mean_apart_from_b_bar(benchmarks, tmp_path, capsys):
+    """A B-bar run with the cell mean (``--volumetric-projection 0``) is a strain of its own: its
+    changes are against its own coarser run and it is compared with B-bar's default projection on
+    its mesh; the option is refused without hexahedra and B-bar (one line, status 2)."""
+    protocols = benchmarks[0].protocols
+    runs = (("cell-average", 4.0, 100e3, {}), ("cell-average", 8.0, 96e3, {}),
+            ("cell-average", 4.0, 90e3, {"volumetric_projection": 0}),
+            ("cell-average", 8.0, 93.6e3, {"volumetric_projection": 0}))
+    paths = [_held_run(tmp_path / f"run{k}.json", strain, across, 0.03, q, load=100.0, **extra)
+             for k, (strain, across, q, extra) in enumerate(runs)]
+    assert protocols.main(["--table"] + [str(p) for p in paths]) == 0
+    held = capsys.readouterr().out.split("\n\n")[0].splitlines()
+    assert not held[0].startswith("| scene")            # one scene: the projection is the strain's
+    rows = {tuple(r.split(" | ")[i] for i in (0, 2)): r for r in held[2:]}
+    assert "| -4.0 % | 4x across the path |  |" in rows[("| cell-average", "8x across the path")]
+    assert "|  |  | -10.0 % |" in rows[("| cell mean", "4x across the path")]
+    assert "| +4.0 % | 4x across the path | -2.5 % |" in rows[("| cell mean", "8x across the path")]
+    for refused in (["--volumetric-projection", "0"],
+                    ["--hexahedra", "--volumetric-strain", "pointwise", "--volumetric-projection", "1"]):
+        with pytest.raises(SystemExit) as stop:
+            protocols.main(refused + ["--out", str(tmp_path / "refused.json")])
+        assert stop.value.code == 2 and "--volumetric-projection:" in capsys.readouterr().err
+    assert not (tmp_path / "refused.json").exists()
+
+
+@pytest.mark.serial
 def test_held_run_at_a_set_step_falls_back_to_the_default_step(benchmarks, tmp_path, capsys):
     """A run at a set travel step whose mesh was run neither at the default step nor coarser at the
     same step is compared with the coarser mesh at the default step, in both tables."""
