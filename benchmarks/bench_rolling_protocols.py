@@ -378,11 +378,10 @@ _NOT_THE_SCENE = ("volumetric_strain", "volumetric_projection", "refinement", "a
 def _scene(args: dict, mu: float) -> str:
     """The scene of a held run saved with ``args`` at friction ``mu``, as sorted JSON (arguments
     added after the run was saved count at their defaults)."""
-    defaults = parser()
-    keys = {k for k in args if k not in _NOT_THE_PATH + _NOT_THE_SCENE}
-    keys |= {a.dest for a in defaults._actions if a.dest not in _NOT_THE_PATH + _NOT_THE_SCENE + ("help",)}
-    scene = {k: args.get(k, defaults.get_default(k)) for k in keys}
-    scene["cont_length"] = scene["cont_length"] or args.get("length", defaults.get_default("length"))
+    defaults = vars(parser().parse_args([]))
+    keys = {k for k in set(args) | set(defaults) if k not in _NOT_THE_PATH + _NOT_THE_SCENE}
+    scene = {k: args.get(k, defaults.get(k)) for k in keys}
+    scene["cont_length"] = scene["cont_length"] or args.get("length", defaults["length"])
     return json.dumps(dict(scene, mu=mu), sort_keys=True)
 
 
