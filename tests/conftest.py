@@ -47,12 +47,26 @@ def pytest_addoption(parser):
                      help=f"write the tests that take {LONG_TEST_S:g} s or more to {DURATIONS.name}")
 
 
+#: fixtures that hand a test the communicator: a test that takes one can depend on the partition
+COMMUNICATOR_FIXTURES = ("comm", "tmp_mpi_path")
+
+
+def _takes_communicator(item) -> bool:
+    return any(name in getattr(item, "fixturenames", ()) for name in COMMUNICATOR_FIXTURES)
+
+
 def pytest_collection_modifyitems(config, items):
-    """Share the long tests (measured in durations.json; a ``slow`` test not in it counts as a
-    minute) out among pytest-xdist's workers.  xdist 3.1 first hands each worker a block of
+    """Under mpirun keep only the tests that take the communicator (:data:`COMMUNICATOR_FIXTURES`):
+    the others (return maps, parsers, the analytic model, ...) cannot depend on the partition and
+    ran in the serial pass.  Then share the long tests (measured in durations.json; a ``slow`` test
+    not in it counts as a minute) out among pytest-xdist's workers.  xdist 3.1 first hands each worker a block of
     consecutive tests, a quarter of its share; the long tests are dealt to those blocks, longest
     first to the least loaded, so no worker ends on a queue of them while another idles.  The
     other tests keep their file order."""
+    if MPI.COMM_WORLD.size > 1:
+        kept = [item for item in items if _takes_communicator(item)]
+        config.hook.pytest_deselected(items=[item for item in items if not _takes_communicator(item)])
+        items[:] = kept
     workers = int(getattr(config, "workerinput", {}).get("workercount", 1))
     known = json.loads(DURATIONS.read_text()) if DURATIONS.exists() else {}
 
