@@ -29,6 +29,8 @@ _LAZY = {
     "run_scene": "run", "FieldWriter": "fields", "DRIVERS": "drivers",
     "Carcass": "carcass", "FacetContact": "contact_pair", "PneumaticIndentation": "pneumatic",
     "PneumaticRolling": "pneumatic_rolling",
+    "SteadyRolling": "steady", "RollingWindow": "steady", "rolling_window_mesh": "steady",
+    "NoSteadyState": "steady",
 }
 
 

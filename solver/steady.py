@@ -1,0 +1,635 @@
+"""Steady rolling in the load's frame (the stationary method): plane strain, a Hertz line pressure
+moving over an elastoplastic soil, solved directly for the state that travels with the load.
+
+The load is fixed at x = 0 on the surface y = 0 and the soil flows through a window in -x: it
+enters undisturbed at the front face x = x_in (``u = 0`` there, optionally with a geostatic
+stress) and leaves at the rear face x = x_out < x_in.  With small strain the streamlines are the
+lines y = const; on a structured quadrilateral mesh aligned with x and a tensor Gauss rule, the
+quadrature points of equal y form them.  The stress is not a history variable of a time step but
+the result of marching the return map along each streamline from the inflow (a *sweep*)::
+
+    state_0 = inflow state,   state_i = return_map(state_{i-1}, eps_i - eps_{i-1}),   eps_{-1} = 0
+
+(the soil ahead is the strain's reference), vectorised over the streamlines.  Equilibrium
+``R(u) = int sigma(u) : eps(v) - int t_out . v - loads = 0`` is solved by Newton-Krylov: GMRES,
+right-preconditioned by the LU of the elastic stiffness (factored once), on the exact Jacobian
+action computed by the tangent-linear sweep::
+
+    d sigma_i = C_i (D^-1 d sigma_{i-1} + d eps_i - d eps_{i-1})
+
+(``C_i`` the consistent tangent of the return map at station i, ``D`` the elasticity: the
+return map's derivative with respect to its trial stress is ``C_i D^-1``).  The rear face carries
+the traction of the swept stress at the last station of each streamline, ``t_out = sigma n``
+(the residual stress behind the load needs it; a fixed or free face would be wrong), in the
+residual and in the Jacobian action; and the last column of cells is held invariant in x (its
+nodes move with those at its front, ``u = P z``), so the axial strain far behind is that of the
+soil around it (zero) rather than free: with the traction alone, a uniform axial stress over the
+window's rear is a near-null mode of the equations, which deep windows excite.  Rate-independent
+plasticity needs only increments: the rolling speed drops out.
+
+Serial only for now (a streamline crosses the cells of several ranks otherwise).
+Reference: K. Dang Van, M. H. Maitournam, J. Mech. Phys. Solids 41 (1993) 1691-1710.
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import ufl
+from dolfinx import fem, mesh as dmesh
+from dolfinx.fem import petsc as fpetsc
+from mpi4py import MPI
+from petsc4py import PETSc
+
+from rollsim import compat
+from rollsim.log import get_logger
+
+from .materials import admissible_k0
+from .problem import mandel_strain
+from .return_map import elastic_stiffness, return_map
+
+__all__ = ["RollingWindow", "rolling_window_mesh", "NewtonKrylovControl", "StreamlineState",
+           "SteadyRollingResult", "SteadyRolling", "NoSteadyState", "DEFAULT_STEADY_OPTIONS"]
+
+log = get_logger("solver")
+
+#: GMRES right-preconditioned by the LU of the elastic stiffness (right: the Krylov test then
+#: measures the true residual, which the Newton iteration's own test uses)
+DEFAULT_STEADY_OPTIONS = {
+    "ksp_type": "gmres",
+    "ksp_pc_side": "right",
+    "ksp_gmres_restart": 200,
+    "ksp_max_it": 1000,
+    "ksp_rtol": 1e-4,
+    "pc_type": "lu",
+    "pc_factor_mat_solver_type": "mumps",
+}
+
+_NCOMP = 4                       # plane-strain Mandel vectors [xx, yy, zz, sqrt2 xy]
+_SQ2 = math.sqrt(2.0)
+_SQ23 = math.sqrt(2.0 / 3.0)
+
+
+class NoSteadyState(RuntimeError):
+    """The steady solve found no steady state (e.g. the load beyond the soil's plastic limit: the
+    load keeps ploughing instead of rolling)."""
+
+
+def _graded_cells(h: float, length: float, grading: float) -> np.ndarray:
+    """Cell sizes covering ``length`` (m) from a cell of about ``h``, each ``grading`` times the
+    last (all scaled to fit exactly); empty for ``length <= 0``."""
+    if length <= 1e-12 * h:
+        return np.zeros(0)
+    sizes = [h * grading]
+    while sum(sizes) < length:
+        sizes.append(sizes[-1] * grading)
+    if len(sizes) > 1 and sum(sizes) - length > 0.5 * sizes[-1]:
+        sizes.pop()
+    return np.asarray(sizes) * length / sum(sizes)
+
+
+@dataclass(frozen=True)
+class RollingWindow:
+    """The soil window of a steady rolling solve, in the load's frame (m).
+
+    The load's centre is at x = 0 on the surface y = 0; the soil enters at x = ``ahead`` and
+    leaves at x = -``behind``; the base (fixed) is at y = -``depth``.  Square cells of side
+    ``half_width / cells_per_half_width`` fill the zone ``|x| <= fine_extent * half_width``,
+    ``y >= -fine_extent * half_width`` (nodes at x = +-half_width); outside it the cells grow by
+    ``grading`` per cell.  ``refinement`` halves every cell that many times (nested meshes for
+    convergence studies)."""
+
+    half_width: float
+    ahead: float
+    behind: float
+    depth: float
+    cells_per_half_width: int = 4
+    fine_extent: float = 1.5
+    grading: float = 1.3
+    refinement: int = 0
+
+    def __post_init__(self):
+        for name in ("half_width", "ahead", "behind", "depth"):
+            val = getattr(self, name)
+            if not (isinstance(val, (int, float)) and math.isfinite(val) and val > 0):
+                raise ValueError(f"{name} must be a positive finite length (m), got {val!r}")
+        if not (isinstance(self.cells_per_half_width, int) and self.cells_per_half_width >= 1):
+            raise ValueError(f"cells_per_half_width must be an integer >= 1, got {self.cells_per_half_width!r}")
+        if not (isinstance(self.refinement, int) and self.refinement >= 0):
+            raise ValueError(f"refinement must be an integer >= 0, got {self.refinement!r}")
+        if not (math.isfinite(self.grading) and self.grading >= 1.0):
+            raise ValueError(f"grading must be a finite number >= 1, got {self.grading!r}")
+        if not self.fine_extent >= 1.0:
+            raise ValueError(f"fine_extent must be >= 1 (half-widths), got {self.fine_extent!r}")
+        fine = self.fine_length
+        if fine > min(self.ahead, self.behind) or fine > self.depth:
+            raise ValueError(f"the fine zone ({fine:g} m about the load) must fit in the window "
+                             f"(ahead {self.ahead:g}, behind {self.behind:g}, depth {self.depth:g} m)")
+
+    @property
+    def cell_size(self) -> float:
+        """Side of the cells in the fine zone before refinement (m)."""
+        return self.half_width / self.cells_per_half_width
+
+    @property
+    def fine_length(self) -> float:
+        """Extent of the fine zone from the load's centre, a whole number of cells (m)."""
+        return math.ceil(self.fine_extent * self.cells_per_half_width - 1e-9) * self.cell_size
+
+    def _refined(self, nodes: np.ndarray) -> np.ndarray:
+        for _ in range(self.refinement):
+            mid = 0.5 * (nodes[1:] + nodes[:-1])
+            nodes = np.insert(nodes, np.arange(1, len(nodes)), mid)
+        return nodes
+
+    def x_nodes(self) -> np.ndarray:
+        """Node abscissae from the rear face to the front face (m)."""
+        h, fine = self.cell_size, self.fine_length
+        n_fine = int(round(2 * fine / h))
+        core = np.linspace(-fine, fine, n_fine + 1)
+        front = fine + np.cumsum(_graded_cells(h, self.ahead - fine, self.grading))
+        rear = -fine - np.cumsum(_graded_cells(h, self.behind - fine, self.grading))
+        return self._refined(np.concatenate([rear[::-1], core, front]))
+
+    def y_nodes(self) -> np.ndarray:
+        """Node ordinates from the base to the surface (m)."""
+        h, fine = self.cell_size, self.fine_length
+        n_fine = int(round(fine / h))
+        core = np.linspace(-fine, 0.0, n_fine + 1)
+        below = -fine - np.cumsum(_graded_cells(h, self.depth - fine, self.grading))
+        return self._refined(np.concatenate([below[::-1], core]))
+
+
+def rolling_window_mesh(comm: MPI.Comm, window: RollingWindow):
+    """Structured quadrilateral mesh of ``window`` (cells aligned with x and y)."""
+    xs, ys = window.x_nodes(), window.y_nodes()
+    nx, ny = len(xs) - 1, len(ys) - 1
+    msh = dmesh.create_rectangle(comm, [np.array([0.0, 0.0]), np.array([float(nx), float(ny)])], [nx, ny],
+                                 dmesh.CellType.quadrilateral)
+    x = msh.geometry.x
+    x[:, 0] = np.interp(x[:, 0], np.arange(nx + 1), xs)
+    x[:, 1] = np.interp(x[:, 1], np.arange(ny + 1), ys)
+    return msh
+
+
+@dataclass(frozen=True)
+class NewtonKrylovControl:
+    """Global iteration of a steady solve: Newton converged when the residual's norm is below
+    ``rtol`` times the load vector's; at most ``max_iterations`` Newton steps; each step
+    backtracked (halved) down to ``min_step`` until the residual's norm decreases."""
+
+    rtol: float = 1e-8
+    max_iterations: int = 30
+    min_step: float = 1.0 / 64
+
+    def __post_init__(self):
+        if not 0 < self.rtol < 1:
+            raise ValueError(f"rtol must lie in (0, 1), got {self.rtol!r}")
+        if not (isinstance(self.max_iterations, int) and self.max_iterations >= 1):
+            raise ValueError(f"max_iterations must be an integer >= 1, got {self.max_iterations!r}")
+        if not 0 < self.min_step <= 1:
+            raise ValueError(f"min_step must lie in (0, 1], got {self.min_step!r}")
+
+
+@dataclass(frozen=True)
+class StreamlineState:
+    """The material state at one station of every streamline (rows ordered as
+    :attr:`SteadyRolling.streamline_depths`): stress and plastic strain (Mandel vectors, Pa and
+    -), accumulated plastic strain ``sum sqrt(2/3) |d eps_p|`` (-)."""
+
+    stress: np.ndarray
+    plastic_strain: np.ndarray
+    accumulated_plastic_strain: np.ndarray
+
+    def __post_init__(self):
+        rows = self.accumulated_plastic_strain.shape
+        if len(rows) != 1 or self.stress.shape != rows + (_NCOMP,) or self.plastic_strain.shape != self.stress.shape:
+            raise ValueError(f"a streamline state needs (rows, {_NCOMP}) stresses and plastic strains and (rows,) "
+                             f"accumulated plastic strains, got {self.stress.shape}, {self.plastic_strain.shape}, "
+                             f"{self.accumulated_plastic_strain.shape}")
+
+
+@dataclass
+class SteadyRollingResult:
+    """A converged steady state under the Hertz pressure of peak ``peak_pressure`` (Pa)."""
+
+    peak_pressure: float
+    newton_iterations: int
+    krylov_iterations: int
+    sweeps: int                           # residual and tangent-linear sweeps
+    wall_time: float                      # s
+    outflow: StreamlineState              # the state leaving the window (the next pass's inflow)
+    max_accumulated_plastic_strain: float  # over the window
+    residual_norms: list[float] = field(default_factory=list)   # relative to the load vector's norm
+
+
+class SteadyRolling:
+    """Steady rolling of a Hertz line pressure ``p(x) = p0 sqrt(1 - (x/half_width)^2)`` (Pa, m) over
+    the soil of ``mesh`` (from :func:`rolling_window_mesh`: structured, aligned with x) in plane
+    strain, in the load's frame (module docstring).
+
+    ``material``: ``VonMises`` or ``DruckerPrager``.  ``unit_weight`` (N/m^3) > 0 adds gravity and
+    the geostatic stress ``sigma_v = -gamma depth``, ``sigma_h = K0 sigma_v`` (K0 as
+    :meth:`PlasticityProblem.set_geostatic_stress`) as the inflow state.  ``degree``: displacement
+    (Lagrange); ``quadrature_degree``: of the tensor Gauss rule (default ``2 * degree``: full
+    integration).  ``petsc_options`` override :data:`DEFAULT_STEADY_OPTIONS` under
+    ``options_prefix``.
+    """
+
+    def __init__(self, mesh, material, half_width: float, *, degree: int = 2,
+                 quadrature_degree: int | None = None, unit_weight: float = 0.0, K0: float | None = None,
+                 control: NewtonKrylovControl | None = None, petsc_options: dict | None = None,
+                 options_prefix: str = "rollsim_steady_"):
+        self.comm = mesh.comm
+        if self.comm.size > 1:
+            raise NotImplementedError(
+                f"steady rolling runs on one rank for now, the mesh's communicator has {self.comm.size}: "
+                "its streamlines would cross the cells of several ranks")
+        if compat.cell_name(mesh) != "quadrilateral":
+            raise ValueError("steady rolling needs a structured quadrilateral mesh, got "
+                             f"{compat.cell_name(mesh)} cells")
+        if not (math.isfinite(half_width) and half_width > 0):
+            raise ValueError(f"half_width must be a positive length (m), got {half_width!r}")
+        if not (math.isfinite(unit_weight) and unit_weight >= 0):
+            raise ValueError(f"unit_weight must be >= 0 (N/m^3), got {unit_weight!r}")
+        self.mesh, self.material, self.half_width = mesh, material, float(half_width)
+        self.control = control or NewtonKrylovControl()
+        self.qdeg = 2 * degree if quadrature_degree is None else quadrature_degree
+        self.D = elastic_stiffness(material, _NCOMP)
+        self._D_inv = np.linalg.inv(self.D)
+
+        x = mesh.geometry.x
+        self.x_in, self.x_out = float(x[:, 0].max()), float(x[:, 0].min())
+        self.surface, self.base = float(x[:, 1].max()), float(x[:, 1].min())
+        self.V = compat.vector_space(mesh, degree)
+        self.u = fem.Function(self.V, name="displacement")
+        self._du = fem.Function(self.V)
+        self.n_cells = mesh.topology.index_map(mesh.topology.dim).size_local
+        points = compat.quadrature_points(mesh, self.qdeg)
+        self._n_points = points.shape[0]
+        self.n_qp = self.n_cells * self._n_points
+        coords = compat.evaluate(compat.expression(ufl.SpatialCoordinate(mesh), points), mesh)
+        #: coordinates of the quadrature points (m), in the quadrature spaces' order
+        self.quadrature_coordinates = coords.reshape(self.n_qp, 2)
+        self._order, self.streamline_depths = self._streamlines()
+        self._strain_expr = compat.expression(mandel_strain(self.u, 2), points)
+        self._dstrain_expr = compat.expression(mandel_strain(self._du, 2), points)
+
+        Qs = compat.quadrature_space(mesh, self.qdeg, (_NCOMP,))
+        self._sigma, self._dsigma = fem.Function(Qs, name="stress"), fem.Function(Qs)
+        self._traction_space = compat.vector_space(mesh, degree, "DQ")
+        self._traction, self._dtraction = fem.Function(self._traction_space), fem.Function(self._traction_space)
+        self._outflow_map()
+
+        fdim = mesh.topology.dim - 1
+        tol = 1e-9 * (self.x_in - self.x_out)
+        front = dmesh.locate_entities_boundary(mesh, fdim, lambda p: np.abs(p[0] - self.x_in) < tol)
+        base = dmesh.locate_entities_boundary(mesh, fdim, lambda p: np.abs(p[1] - self.base) < tol)
+        top = dmesh.locate_entities_boundary(mesh, fdim, lambda p: np.abs(p[1] - self.surface) < tol)
+        rear = dmesh.locate_entities_boundary(mesh, fdim, lambda p: np.abs(p[0] - self.x_out) < tol)
+        fixed = fem.locate_dofs_topological(self.V, fdim, np.unique(np.concatenate([front, base])))
+        self.bcs = [fem.dirichletbc(np.zeros(2, dtype=PETSc.ScalarType), fixed, self.V)]
+        facets = np.concatenate([top, rear])
+        tags = np.concatenate([np.full(len(top), 1, np.int32), np.full(len(rear), 2, np.int32)])
+        order = np.argsort(facets)
+        ds = ufl.Measure("ds", domain=mesh, subdomain_data=dmesh.meshtags(mesh, fdim, facets[order], tags[order]))
+        dx = ufl.Measure("dx", domain=mesh, metadata={"quadrature_degree": self.qdeg, "quadrature_scheme": "default"})
+
+        v, w = ufl.TestFunction(self.V), ufl.TrialFunction(self.V)
+        X = ufl.SpatialCoordinate(mesh)
+        self.peak = fem.Constant(mesh, PETSc.ScalarType(0.0))
+        pressure = self.peak * ufl.sqrt(ufl.max_value(1.0 - (X[0] / self.half_width) ** 2, 0.0))
+        # the pressure's square-root ends need more points than the displacement's degree
+        load = pressure * v[1] * ds(1, metadata={"quadrature_degree": 4 * degree + 4})
+        if unit_weight:
+            load += unit_weight * v[1] * dx
+        eps_v = mandel_strain(v, 2)
+        # the rear face's Gauss points lie on the streamlines: the traction's trace there is exact
+        ds_rear = ds(2, metadata={"quadrature_degree": self.qdeg})
+        self._F = fem.form(ufl.inner(self._sigma, eps_v) * dx - ufl.inner(self._traction, v) * ds_rear + load)
+        self._Jv = fem.form(ufl.inner(self._dsigma, eps_v) * dx - ufl.inner(self._dtraction, v) * ds_rear)
+        self._load = fem.form(load)
+        Dm = ufl.as_matrix(self.D.tolist())
+        K = fpetsc.assemble_matrix(fem.form(ufl.inner(ufl.dot(Dm, mandel_strain(w, 2)), eps_v) * dx), bcs=self.bcs)
+        K.assemble()
+        self._b = compat.create_vector(self._F)
+        bs = self.V.dofmap.index_map_bs
+        self._fixed = (fixed[:, None] * bs + np.arange(bs)).reshape(-1)     # unrolled dof indices
+        self._tie = self._rear_tie()
+        self._elastic_matrix = self._reduced_matrix(K)
+        K.destroy()
+        self._full = self._b.duplicate()
+
+        self.inflow = self._geostatic_state(unit_weight, K0)
+        self.petsc_options = {**DEFAULT_STEADY_OPTIONS, **(petsc_options or {})}
+        self.options_prefix = options_prefix
+        self._ksp = self._krylov_solver()
+        self._fields: tuple | None = None
+        self._counts = {"sweeps": 0, "krylov": 0}
+
+    # ------------------------------------------------------------------ set-up
+    def _streamlines(self) -> tuple[np.ndarray, np.ndarray]:
+        """Quadrature points as (rows, stations): rows of equal y from the surface down, each from
+        the inflow (largest x) to the outflow; and the rows' depths below the surface (m)."""
+        xq, yq = self.quadrature_coordinates[:, 0], self.quadrature_coordinates[:, 1]
+        order = np.argsort(-yq, kind="stable")
+        gaps = np.flatnonzero(np.diff(-yq[order]) > 1e-9 * (self.surface - self.base)) + 1
+        rows = np.split(order, gaps)
+        if len({len(r) for r in rows}) != 1:
+            raise ValueError("the quadrature points do not form streamlines of equal length: the mesh must be "
+                             "a structured grid of cells aligned with x (rolling_window_mesh)")
+        table = np.array([r[np.argsort(-xq[r], kind="stable")] for r in rows])
+        return table, self.surface - yq[table[:, 0]]
+
+    def _outflow_map(self) -> None:
+        """Where the rear face's traction goes: for each cell on the rear face, its traction dofs
+        on the face and the three streamlines whose last station lies in it, with the quadratic
+        Lagrange weights from those stations' y to the dofs' y."""
+        last = self._order[:, -1]
+        cell_of_row = last // self._n_points
+        dof_x = self._traction_space.tabulate_dof_coordinates()
+        dofs = compat.cell_dofs(self._traction_space.dofmap)
+        tol = 1e-9 * (self.x_in - self.x_out)
+        cells = np.unique(cell_of_row)
+        face_dofs, face_rows, weights = [], [], []
+        y_row = self.quadrature_coordinates[last, 1]
+        for c in cells:
+            rows = np.flatnonzero(cell_of_row == c)
+            on_face = dofs[c][np.abs(dof_x[dofs[c], 0] - self.x_out) < tol]
+            if len(rows) != 3 or len(on_face) != 3:
+                raise ValueError("the rear face's traction needs quadratic Lagrange cells with three Gauss rows "
+                                 f"(cell {c}: {len(rows)} rows, {len(on_face)} face dofs)")
+            yg, yn = y_row[rows], dof_x[on_face, 1]
+            L = np.ones((3, 3))
+            for g in range(3):
+                for m in range(3):
+                    if m != g:
+                        L[:, g] *= (yn - yg[m]) / (yg[g] - yg[m])
+            face_dofs.append(on_face)
+            face_rows.append(rows)
+            weights.append(L)
+        self._face_dofs, self._face_rows, self._face_weights = map(np.array, (face_dofs, face_rows, weights))
+
+    def _rear_tie(self) -> PETSc.Mat:
+        """``P`` with ``u = P z``: the displacement of the last column of cells is that of its front
+        nodes, the same at every x (the state no longer changes there); identity elsewhere.
+        :attr:`_slaves`: the dofs so tied."""
+        X = self.V.tabulate_dof_coordinates()
+        bs = self.V.dofmap.index_map_bs
+        n_nodes = self.V.dofmap.index_map.size_local
+        vertex_x = np.unique(np.round(self.mesh.geometry.x[:, 0], 12))
+        x_tie = vertex_x[1]
+        tol = 1e-9 * (self.x_in - self.x_out)
+        fixed_nodes = np.unique(self._fixed // bs)
+        rear = np.setdiff1d(np.flatnonzero(X[:n_nodes, 0] < x_tie - tol), fixed_nodes)
+        front = np.flatnonzero(np.abs(X[:n_nodes, 0] - x_tie) < tol)
+        front = front[np.argsort(X[front, 1])]
+        master = front[np.searchsorted(X[front, 1], X[rear, 1] - tol)]
+        if not np.allclose(X[master, 1], X[rear, 1], atol=tol):
+            raise ValueError("the last column of cells has no front node at the height of every rear node")
+        n = n_nodes * bs
+        cols = np.arange(n)
+        slaves = (rear[:, None] * bs + np.arange(bs)).reshape(-1)
+        cols[slaves] = (master[:, None] * bs + np.arange(bs)).reshape(-1)
+        P = PETSc.Mat().createAIJ(((n, n), (n, n)), nnz=1, comm=self.comm)
+        P.setValuesCSR(np.arange(n + 1, dtype=PETSc.IntType), cols.astype(PETSc.IntType), np.ones(n))
+        P.assemble()
+        self._slaves = slaves
+        return P
+
+    def _reduced_matrix(self, K: PETSc.Mat) -> PETSc.Mat:
+        """``P^T K P`` with ones on the tied dofs' diagonal."""
+        Kr = K.PtAP(self._tie)
+        Kr.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, False)
+        for dof in self._slaves:
+            Kr.setValue(dof, dof, 1.0)
+        Kr.assemble()
+        return Kr
+
+    def _geostatic_state(self, unit_weight: float, K0: float | None) -> StreamlineState:
+        rows = len(self.streamline_depths)
+        stress = np.zeros((rows, _NCOMP))
+        self.K0 = None
+        if unit_weight:
+            k0, clipped = admissible_k0(self.material, K0, unit_weight * (self.surface - self.base), _NCOMP)
+            if clipped:
+                log.warning("K0 violates the yield condition under self weight; using K0 = %.4g", k0)
+            sv = -unit_weight * self.streamline_depths
+            stress[:, [0, 2]] = (k0 * sv)[:, None]
+            stress[:, 1] = sv
+            self.K0 = k0
+        return StreamlineState(stress, np.zeros((rows, _NCOMP)), np.zeros(rows))
+
+    def _krylov_solver(self) -> PETSc.KSP:
+        n = self.V.dofmap.index_map.size_local * self.V.dofmap.index_map_bs
+        jac = PETSc.Mat().createPython(((n, n), (n, n)), _JacobianAction(self), comm=self.comm)
+        jac.setUp()
+        opts = PETSc.Options()
+        for key, val in self.petsc_options.items():
+            opts[self.options_prefix + key] = val
+        ksp = PETSc.KSP().create(self.comm)
+        ksp.setOptionsPrefix(self.options_prefix)
+        ksp.setOperators(jac, self._elastic_matrix)     # the preconditioner is factored once
+        ksp.setFromOptions()
+        self._jacobian = jac
+        return ksp
+
+    # ------------------------------------------------------------------ sweeps
+    def _point_values(self, expr) -> np.ndarray:
+        return compat.evaluate(expr, self.mesh).reshape(self.n_qp, _NCOMP)
+
+    def _store(self, f: fem.Function, rows_values: np.ndarray) -> None:
+        """Put (rows, stations, 4) values at their quadrature points of ``f``."""
+        flat = np.empty((self.n_qp, _NCOMP))
+        flat[self._order] = rows_values
+        f.x.array[: flat.size] = flat.reshape(-1)
+
+    def _store_traction(self, f: fem.Function, stress: np.ndarray) -> None:
+        """The rear face's traction ``sigma n`` (n = -e_x) of the last stations' ``stress``."""
+        t = np.stack([-stress[:, 0], -stress[:, 3] / _SQ2], axis=1)          # (rows, 2)
+        nodal = np.einsum("cng,cgk->cnk", self._face_weights, t[self._face_rows])
+        f.x.array.reshape(-1, 2)[self._face_dofs] = nodal
+
+    def _sweep(self, inflow: StreamlineState) -> None:
+        """March the return map along the streamlines at the current displacement."""
+        strain = self._point_values(self._strain_expr)[self._order]             # (rows, stations, 4)
+        rows, stations, _ = strain.shape
+        sigma, eps_p = inflow.stress.copy(), inflow.plastic_strain.copy()
+        acc = inflow.accumulated_plastic_strain.copy()
+        S, EP = np.empty_like(strain), np.empty_like(strain)
+        C, ACC = np.empty((rows, stations, _NCOMP, _NCOMP)), np.empty((rows, stations))
+        previous = np.zeros((rows, _NCOMP))
+        for i in range(stations):
+            res = return_map(self.material, sigma, strain[:, i] - previous)
+            sigma = res.sigma
+            eps_p = eps_p + res.deps_p
+            acc = acc + _SQ23 * np.linalg.norm(res.deps_p, axis=1)
+            S[:, i], EP[:, i], ACC[:, i], C[:, i] = sigma, eps_p, acc, res.tangent
+            previous = strain[:, i]
+        self._counts["sweeps"] += 1
+        self._fields = (S, EP, ACC)
+        self._tangent = C
+        self._upstream = C @ self._D_inv           # d sigma_i / d sigma_{i-1}
+        self._store(self._sigma, S)
+        self._store_traction(self._traction, S[:, -1])
+
+    def _tangent_sweep(self) -> None:
+        """The sweep's directional derivative for the displacement increment in ``self._du``."""
+        dstrain = self._point_values(self._dstrain_expr)[self._order]
+        local = np.einsum("rsij,rsj->rsi", self._tangent, np.diff(dstrain, axis=1, prepend=0.0))
+        dsigma = np.empty_like(dstrain)
+        ds = np.zeros(dstrain[:, 0].shape)
+        for i in range(dstrain.shape[1]):
+            ds = np.einsum("rij,rj->ri", self._upstream[:, i], ds) + local[:, i]
+            dsigma[:, i] = ds
+        self._counts["sweeps"] += 1
+        self._store(self._dsigma, dsigma)
+        self._store_traction(self._dtraction, dsigma[:, -1])
+
+    def _assemble(self, form, b: PETSc.Vec) -> PETSc.Vec:
+        with b.localForm() as local:
+            local.set(0.0)
+        fpetsc.assemble_vector(b, form)
+        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        compat.set_bc(b, self.bcs)
+        return b
+
+    def residual(self, inflow: StreamlineState) -> PETSc.Vec:
+        """The residual (N/m) of the current displacement, ``P^T R``: sweep, then assemble."""
+        self._sweep(inflow)
+        self._tie.multTranspose(self._assemble(self._F, self._full), self._b)
+        return self._b
+
+    def jacobian_action(self, x: PETSc.Vec, y: PETSc.Vec) -> None:
+        """``y = P^T J P x`` at the state of the last residual (identity on the fixed and tied dofs)."""
+        self._tie.mult(x, compat.petsc_vector(self._du))
+        self._du.x.array[self._fixed] = 0.0
+        self._tangent_sweep()
+        self._tie.multTranspose(self._assemble(self._Jv, self._full), y)
+        keep = np.concatenate([self._fixed, self._slaves])
+        y.array[keep] = x.array_r[keep]
+
+    # ------------------------------------------------------------------ solves
+    def solve(self, peak_pressure: float, inflow: StreamlineState | None = None) -> SteadyRollingResult:
+        """The steady state under the peak pressure ``peak_pressure`` (Pa) with the soil entering
+        in the state ``inflow`` (default: undisturbed, :attr:`inflow`), from zero displacement.
+        Raises :class:`NoSteadyState` when Newton-Krylov does not converge."""
+        if not (math.isfinite(peak_pressure) and peak_pressure > 0):
+            raise ValueError(f"peak_pressure must be a positive pressure (Pa), got {peak_pressure!r}")
+        inflow = self.inflow if inflow is None else inflow
+        if inflow.stress.shape[0] != len(self.streamline_depths):
+            raise ValueError(f"inflow state has {inflow.stress.shape[0]} streamlines, the mesh "
+                             f"{len(self.streamline_depths)}")
+        ctl = self.control
+        t0 = time.perf_counter()
+        self._counts = {"sweeps": 0, "krylov": 0}
+        self.peak.value = peak_pressure
+        load = self._b.duplicate()
+        self._tie.multTranspose(self._assemble(self._load, self._full), load)
+        scale = load.norm()
+        self.u.x.array[:] = 0.0
+        b = self.residual(inflow)
+        norm = b.norm()
+        history = [norm / scale]
+        step = self._b.duplicate()
+        it = 0
+        while not history[-1] <= ctl.rtol:
+            if not math.isfinite(norm):
+                self._fail(peak_pressure, "the residual is not finite")
+            if it == ctl.max_iterations:
+                self._fail(peak_pressure, f"Newton-Krylov did not converge in {it} iterations (residual "
+                                          f"{history[-1]:.2e} of the load's, wanted {ctl.rtol:.0e})")
+            rhs = b.copy()
+            rhs.scale(-1.0)
+            self._ksp.setTolerances(atol=0.1 * ctl.rtol * scale)
+            self._ksp.solve(rhs, step)
+            self._counts["krylov"] += self._ksp.getIterationNumber()
+            reason = self._ksp.getConvergedReason()
+            if reason < 0:
+                log.info("steady rolling: GMRES stopped (reason %d) after %d iterations; step taken as is",
+                         reason, self._ksp.getIterationNumber())
+            self._tie.mult(step, compat.petsc_vector(self._du))
+            u0, du = self.u.x.array.copy(), self._du.x.array.copy()
+            alpha = 1.0
+            while True:
+                self.u.x.array[:] = u0 + alpha * du
+                b = self.residual(inflow)
+                trial = b.norm()
+                if trial <= (1.0 - 1e-4 * alpha) * norm:       # False for a NaN residual
+                    break
+                alpha *= 0.5
+                if alpha < ctl.min_step:
+                    self._fail(peak_pressure, f"no Newton step lowers the residual ({norm / scale:.2e} of the "
+                                              f"load's after {it} iterations)")
+            norm = trial
+            it += 1
+            history.append(norm / scale)
+            log.debug("steady rolling p0 = %.4g Pa: Newton %d, residual %.3e, step %.3g, GMRES %d", peak_pressure,
+                      it, history[-1], alpha, self._ksp.getIterationNumber())
+        S, EP, ACC = self._fields
+        outflow = StreamlineState(S[:, -1].copy(), EP[:, -1].copy(), ACC[:, -1].copy())
+        return SteadyRollingResult(peak_pressure=float(peak_pressure), newton_iterations=it,
+                                   krylov_iterations=self._counts["krylov"], sweeps=self._counts["sweeps"],
+                                   wall_time=time.perf_counter() - t0, outflow=outflow,
+                                   max_accumulated_plastic_strain=float(ACC.max()), residual_norms=history)
+
+    def passes(self, peak_pressure: float, count: int) -> list[SteadyRollingResult]:
+        """``count`` passes of the same load: each pass's soil enters in the state the last one
+        left behind (the window must reach far enough behind the load for that state to be
+        settled).  The first pass starts from :attr:`inflow`."""
+        if not (isinstance(count, int) and count >= 1):
+            raise ValueError(f"count must be an integer >= 1, got {count!r}")
+        results, state = [], self.inflow
+        for _ in range(count):
+            results.append(self.solve(peak_pressure, state))
+            state = results[-1].outflow
+        return results
+
+    @staticmethod
+    def _fail(peak_pressure: float, cause: str) -> None:
+        raise NoSteadyState(f"no steady state under the peak pressure {peak_pressure:.6g} Pa: {cause}; the load "
+                            "may exceed the soil's plastic limit (it would keep ploughing)")
+
+    # ------------------------------------------------------------------ fields of the last solve
+    @property
+    def stress(self) -> np.ndarray:
+        """Swept stress at the quadrature points (Pa, Mandel, :attr:`quadrature_coordinates` order)."""
+        return self._flat(0)
+
+    @property
+    def plastic_strain(self) -> np.ndarray:
+        """Plastic strain at the quadrature points (Mandel)."""
+        return self._flat(1)
+
+    @property
+    def accumulated_plastic_strain(self) -> np.ndarray:
+        """``sum sqrt(2/3) |d eps_p|`` at the quadrature points."""
+        return self._flat(2)
+
+    def _flat(self, k: int) -> np.ndarray:
+        if self._fields is None:
+            raise RuntimeError("no steady state computed yet: call solve() first")
+        values = self._fields[k]
+        flat = np.empty((self.n_qp,) + values.shape[2:])
+        flat[self._order] = values
+        return flat
+
+    def surface_displacement(self) -> tuple[np.ndarray, np.ndarray]:
+        """``(x, u)`` of the displacement's nodes on the surface, ordered by x (m, m)."""
+        X = self.V.tabulate_dof_coordinates()
+        n = self.V.dofmap.index_map.size_local
+        top = np.flatnonzero(np.abs(X[:n, 1] - self.surface) < 1e-9 * (self.x_in - self.x_out))
+        top = top[np.argsort(X[top, 0])]
+        return X[top, 0], self.u.x.array.reshape(-1, 2)[top]
+
+
+class _JacobianAction:
+    """PETSc Python matrix: the exact Jacobian action of a :class:`SteadyRolling`."""
+
+    def __init__(self, steady: SteadyRolling):
+        self.steady = steady
+
+    def mult(self, mat, x, y):
+        self.steady.jacobian_action(x, y)
