@@ -74,7 +74,7 @@ def test_si_conversion_and_defaults():
     assert parse_scene(with_change("model.relaxation_length", "0.01 mm")).model.relaxation_length == pytest.approx(1e-5)
     assert scene.model.regularising_cohesion == 1e3                 # in place of c = 0; 0 keeps c = 0
     assert parse_scene(with_change("model.regularising_cohesion", 0)).model.regularising_cohesion == 0
-    assert scene.model.plateau_tolerance == 1e-3                    # Newton plateaus; 0: never accepted
+    assert scene.model.plateau_tolerance == 1e-4                    # Newton plateaus; 0: never accepted
     assert parse_scene(with_change("model.plateau_tolerance", 0)).model.plateau_tolerance == 0
     assert scene.to_dict()["soil"]["layers"][0]["phi_dp"] == pytest.approx(27.5)
 
