@@ -261,6 +261,23 @@ def _nodal_normals(patch, surface):
     return _unit(np.einsum("nik,nikd->nid", weight, normals))
 
 
+def _tiled(a: np.ndarray, m: int) -> np.ndarray:
+    """``m`` copies of ``a`` stacked along its first axis."""
+    return np.tile(a, (m,) + (1,) * (a.ndim - 1))
+
+
+def _complex_step(values: np.ndarray, evaluate) -> np.ndarray:
+    """Derivatives (rows, outputs, columns) of ``evaluate`` by each column of ``values`` (rows,
+    columns), by the complex step, all columns in one call: ``evaluate(stacked, m)`` gets the
+    ``m`` perturbed copies stacked along the rows (copy k, row i at k * rows + i) and returns one
+    row of outputs for each."""
+    rows, m = values.shape
+    stacked = np.repeat(values[None].astype(complex), m, axis=0)                  # (m, rows, m)
+    stacked[np.arange(m), :, np.arange(m)] += 1j * _STEP
+    out = evaluate(stacked.reshape(m * rows, m), m)
+    return out.reshape(m, rows, -1).imag.transpose(1, 2, 0) / _STEP
+
+
 def _pair_forces(q: np.ndarray, Ns: np.ndarray, kw: np.ndarray, nodal: np.ndarray, xi0: np.ndarray, friction=None):
     """Gap and nodal forces of pairs.  Rows of ``q`` hold the node coordinates (possibly complex)
     of the slave facet, of the master facet now under the point and of the master facet the point
@@ -592,29 +609,21 @@ class FacetContact:
         complex step of the forces by the core coordinates and by the nodal normals, and of the
         nodal normals by the patch's coordinates, once per master facet."""
         points, facets, q, xi0 = self._pairs(x)
+        if not len(points):
+            return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64), np.zeros(0)
         ks, km, P, d = self.slave.shape[1], self.master.shape[1], self.patch.shape[1], self.d
         n, loaded = len(points), d * (ks + km)          # the slave and master facets' rows
         core, patch = self._split(q)
         unique, first, inverse = np.unique(facets, return_index=True, return_inverse=True)
         surface = self._surface(unique)
         patch = patch[first]                                                   # (facets, P, d)
-        D_nodal = np.empty((len(unique), km * d, P * d))
-        for j in range(P * d):
-            pc = patch.astype(complex).reshape(len(unique), P * d)
-            pc[:, j] += 1j * _STEP
-            normals = _nodal_normals(pc.reshape(patch.shape), surface)
-            D_nodal[:, :, j] = normals.reshape(len(unique), km * d).imag / _STEP
+        D_nodal = _complex_step(patch.reshape(len(unique), P * d), lambda pc, m: _nodal_normals(
+            pc.reshape((-1,) + patch.shape[1:]), tuple(_tiled(a, m) for a in surface)).reshape(len(pc), km * d))
         nodal = _nodal_normals(patch, surface)[inverse]
-        K_core = np.empty((n, loaded, core.shape[1]))
-        for j in range(core.shape[1]):
-            cc = core.astype(complex)
-            cc[:, j] += 1j * _STEP
-            K_core[:, :, j] = self._core(points, cc, nodal, xi0)[1].imag / _STEP
-        K_nodal = np.empty((n, loaded, km * d))
-        for j in range(km * d):
-            nc = nodal.astype(complex).reshape(n, km * d)
-            nc[:, j] += 1j * _STEP
-            K_nodal[:, :, j] = self._core(points, core, nc.reshape(nodal.shape), xi0)[1].imag / _STEP
+        K_core = _complex_step(core, lambda cc, m: self._core(np.tile(points, m), cc, _tiled(nodal, m),
+                                                              _tiled(xi0, m))[1])
+        K_nodal = _complex_step(nodal.reshape(n, km * d), lambda nc, m: self._core(
+            np.tile(points, m), _tiled(core, m), nc.reshape((-1,) + nodal.shape[1:]), _tiled(xi0, m))[1])
         K = np.zeros((n, loaded, q.shape[1]))
         K[:, :, :loaded] = K_core[:, :, :loaded]
         K[:, :, d * (ks + P):] = K_core[:, :, loaded:]
