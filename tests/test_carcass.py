@@ -12,6 +12,7 @@ from mpi4py import MPI
 
 from rollsim.geometry import MeshOptions, build_tire, pneumatic_tire
 from rollsim.geometry.shell import build_spherical_shell
+from rollsim.solver import StepControl
 from rollsim.solver.carcass import Carcass, NeoHookean
 
 A, B, E, NU = 1.0, 1.5, 1e6, 0.3       # m, m, Pa: inner / outer radius of the test shell
@@ -115,11 +116,12 @@ def test_follower_pressure_on_a_closed_surface_has_no_resultant(comm):
 
 @pytest.mark.slow
 def test_tire_inflates_with_the_bead_held(comm):
-    """The Mn/DOT-size tire (half model, coarse P2 hexahedra) inflated to 650 kPa: Newton converges in
-    a few iterations per step, the tread grows outwards, the bead stays on the hub, and the gas
-    force on the full turn of the carcass has no x or z resultant."""
+    """The Mn/DOT-size tire (half model, coarse P2 hexahedra of 0.15 m) inflated to 650 kPa: Newton
+    converges in a few iterations per step, the tread grows outwards (measured: 31 mm on average),
+    the bead stays on the hub, and the gas force on the full turn of the carcass has no x or z
+    resultant."""
     tire = pneumatic_tire(1.524, width=0.3, hub_diameter=0.5, shoulder_radius=0.08, gap=0.01, cut="half")
-    carcass = Carcass(build_tire(comm, tire, MeshOptions(0.1, 0.1, 1.0, order=2)), NeoHookean(50e6, 0.45))
+    carcass = Carcass(build_tire(comm, tire, MeshOptions(0.15, 0.15, 1.0, order=2)), NeoHookean(50e6, 0.45))
     records = carcass.inflate(650e3)
     assert max(r.iterations for r in records) <= 10
     assert carcass.mean_normal_displacement("outer_surface") > 0.01            # m, outwards
@@ -210,11 +212,13 @@ def test_inflated_tire_on_rigid_ground_carries_more_load_at_higher_pressure(comm
         carcass = Carcass(mesh, NeoHookean(50e6, 0.45), ground=ground)
         carcass.inflate(pressure)
         assert carcass.ground_force() == 0.0
-        carcass.press(carcass.lowest_point() - ground)                      # free, down to the ground
-        records = carcass.press(deflection,
+        # free, down to the ground: a rigid move of the inflated carcass, in one step
+        carcass.press(carcass.lowest_point() - ground, StepControl(dt=1.0, dt_max=1.0))
+        records = carcass.press(deflection, StepControl(dt=0.1, dt_min=1e-4, dt_max=0.2, easy_iterations=6),
                                 on_step=lambda: {"Q": 2 * carcass.ground_force(), "A": 2 * carcass.contact_area()})
         pressed = [r.data for r in records if r.data["Q"] > 0]
-        # the patch grows as the hub goes down (counted at points: steps of up to 1 % back measured)
+        # the patch grows as the hub goes down (counted at points: steps of up to 1 % back measured;
+        # in the 6 steps here it grows 13- to 15-fold, by at least 16 % a step)
         assert len(pressed) >= 3 and all(b["A"] >= 0.98 * a["A"] for a, b in zip(pressed, pressed[1:]))
         assert pressed[-1]["A"] > 5 * pressed[0]["A"]
         last = pressed[-1]

@@ -71,17 +71,18 @@ def test_a_tire_that_inflates_into_the_soil_is_refused(comm):
 def test_tire_on_stiff_soil_carries_what_it_carries_on_rigid_ground(comm):
     """Frictionless, on an elastic soil ten times stiffer than the carcass, pressed 30 mm after
     touching: the wheel load is that of the carcass on rigid ground (its own verified model, the
-    same tire mesh) within 1 % (the soil settles by 0.2 mm); the soil's bottom carries it to 1e-8."""
+    same tire mesh) within 1 % (the soil settles by 0.2 mm; measured -0.3 %, pressed in two steps,
+    of 7 and 4 Newton iterations); the soil's bottom carries it to 1e-8."""
     deflection = 0.03
     ground = Carcass(build_tire(comm, _tire(), MeshOptions(SIZE, SIZE, 1.0, order=2)), CARCASS, ground=0.0)
     ground.inflate(PRESSURE)
-    ground.press(ground.lowest_point())
-    ground.press(deflection)
+    ground.press(ground.lowest_point(), StepControl(dt=1.0, dt_max=1.0))     # a rigid move, clear of the ground
+    ground.press(deflection, StepControl(dt=0.25, dt_min=1e-4, dt_max=0.5, easy_iterations=6))
     rigid = 4 * ground.ground_force()
     pn = _tire_on_soil(comm, VonMises(E=10 * CARCASS.E, nu=0.3, yield_stress=1e12), friction=0.0, penalty=10.0)
     pn.inflate(PRESSURE)
     pn.touch()
-    records = pn.press(deflection, StepControl(dt=0.2, dt_max=0.25))
+    records = pn.press(deflection, StepControl(dt=0.5, dt_max=0.5))
     Q = pn.wheel_load()
     assert abs(Q / rigid - 1) < 0.01, (Q, rigid)
     assert abs(_bottom_reaction(pn) / Q - 1) < 1e-8
@@ -94,12 +95,13 @@ def test_tire_sinks_into_clay(comm):
     a part of the hub's travel, the rest the tire's deflection; Newton needs few iterations per
     step; the soil's bottom carries the wheel load.  The tread's contact arc is flatter than the
     tire (equivalent diameter above d: a positive flexibility) and the gas carries most of the
-    load (measured: d_e = 1.73 d, carcass share 15 %)."""
+    load (measured in steps of 15 mm: sinkage 21 mm, at most 6 Newton iterations a step, d_e = 1.74 d,
+    carcass share 13 %)."""
     pn = _tire_on_soil(comm, VonMises(E=20e6, nu=0.3, yield_stress=3 ** 0.5 * 60e3), friction=0.5, penalty=3.0)
     pn.inflate(PRESSURE)
     pn.touch()
     travel = 0.06
-    records = pn.press(travel, StepControl(dt=0.1, dt_max=0.1))
+    records = pn.press(travel, StepControl(dt=0.25, dt_max=0.25))
     sinkage, Q = -pn.lowest_point(), pn.wheel_load()
     assert 0.1 * travel < sinkage < 0.9 * travel, sinkage
     assert pn.problem.counts()["plastic"] > 0
@@ -124,20 +126,27 @@ def _scene_file(path: pathlib.Path, text: str) -> pathlib.Path:
     return path
 
 
+#: elements per d of the solved example scenes: coarser than the fast preset's 8, so fewer dofs
+#: and contact points (the tire is meshed at the soil's fine size, d / 6)
+SCENE_REFINEMENT = 6
+
+
 def _example(tmp, **changes) -> pathlib.Path:
-    """The example scene with ``key = value`` lines replaced (TOML text)."""
+    """The example scene with ``key = value`` lines replaced (TOML text), meshed with
+    ``SCENE_REFINEMENT`` elements per d."""
     text = EXAMPLE.read_text()
     for key, value in changes.items():
         text = re.sub(rf"(?m)^{key} = .*$", f"{key} = {value}", text)
+    text += f"refinement = {SCENE_REFINEMENT}\n"                  # [model] is the last table
     return _scene_file(tmp / f"scene_{'_'.join(changes) or 'example'}.toml", text)
 
 
 def test_pneumatic_scene_runs_end_to_end(comm, tmp_mpi_path):
-    """``rollsim run`` of the example (fast preset) pressed to 12 mm: exit 0, a history, and the
+    """``rollsim run`` of the example (6 elements per d) pressed to 12 mm: exit 0, a history, and the
     tire's figures in summary.json: its sinkage past the target by less than one aimed step, the
     hub's travel split into sinkage and deflection, the wheel load that of the last step; the
     fields of tire and soil, and the contact pressures, whose sum over their areas (x 4, quarter
-    model) is the wheel load within 10 % (the areas are of the undeformed surface; measured -0.4 %)."""
+    model) is the wheel load within 10 % (the areas are of the undeformed surface; measured -0.8 %)."""
     scene = _example(tmp_mpi_path, max_sinkage='"0.012 m"')
     out = tmp_mpi_path / "run"
     assert main(["run", str(scene), "--out", str(out), "--quiet"]) == 0
@@ -148,7 +157,7 @@ def test_pneumatic_scene_runs_end_to_end(comm, tmp_mpi_path):
     assert tire["deflection_m"] > 0 and tire["hub_displacement_m"] == pytest.approx(tire["sinkage_m"]
                                                                                        + tire["deflection_m"])
     assert tire["wheel_load_N"] == pytest.approx(summary["QV_N"], rel=1e-9) and tire["wheel_load_N"] > 0
-    # near zero this early (pressure times sampled area ~ the load: measured -0.03 %)
+    # the gas carries most of the load (measured: carcass share 21 % at 6 elements per d)
     assert -0.02 < tire["carcass_load_share"] < 1 and tire["contact_length_m"] > 0
     assert summary["model"]["contact"]["alpha"] == TIRE_PENALTY
     with (out / "history.csv").open() as f:
@@ -208,14 +217,15 @@ def test_rigid_indentation_to_a_load_is_refused_with_the_key(comm, tmp_mpi_path,
 @pytest.mark.slow
 def test_towed_tire_on_elastic_soil_rolls_free(comm):
     """The half tire inflated to 450 kPa by full Newton steps, pressed to 30 kN on an elastic soil
-    (E = 200 MPa, mu = 0.5) and towed 0.3 m in steps of 1/8 element: every step holds the load within 0.2 % and the axle
-    torque within 0.002 Q d; the soil's bottom carries the load (to 1e-6).  Nothing dissipates
-    but the tread's slip, so the towing force is nearly zero (measured: within +-0.5 % of the
-    load, mean 0.1 %), and the tire turns as a wheel whose rolling radius lies between its loaded
-    radius d/2 - deflection and d/2 (measured: 0.758 m, d/2 = 0.762 m, deflection 35 mm)."""
+    (E = 200 MPa, mu = 0.5; a block 1.7 d x 0.7 d x 0.6 d) and towed 0.16 m in steps of 1/8
+    element: every step holds the load within 0.2 % and the axle torque within 0.002 Q d; the
+    soil's bottom carries the load (to 1e-6).  Nothing dissipates but the tread's slip, so the
+    towing force is nearly zero (measured: within +-0.3 % of the load, mean -0.02 %), and the tire
+    turns as a wheel whose rolling radius lies between its loaded radius d/2 - deflection and d/2
+    (measured: 0.757 m, d/2 = 0.762 m, deflection 35 mm)."""
     load = 30e3
     tire = pneumatic_tire(D, cut="half", gap=0.03, x_centre=0.6 * D)
-    block = rolling_block(D, length=2.0, half_width=1.0, depth=0.8, stiff_length=0.95)
+    block = rolling_block(D, length=1.7, half_width=0.7, depth=0.6, stiff_length=0.95)
     tm = build_tire_on_soil(comm, tire, block, MeshOptions.from_refinement(D, 6, order=2, hexahedra=True),
                             MeshOptions(SIZE, SIZE, 1.0, order=2))
     pr = PneumaticRolling(tm, tire, VonMises(E=200e6, nu=0.3, yield_stress=1e12), CARCASS, friction=0.5,
@@ -225,11 +235,11 @@ def test_towed_tire_on_elastic_soil_rolls_free(comm):
     assert sum(r.iterations for r in inflation) < 40, inflation
     assert pr.problem.petsc_options["snes_linesearch_type"] == "bt"
     pr.touch()
-    assert pr.press_to_load(load, 0.004 * D, 0.1) == "ok"
+    assert pr.press_to_load(load, 0.01 * D, 0.1) == "ok"
     deflection = pr.tire_state()["deflection_m"]
     steps = []
-    pr.roll_at_load(load, 0.3, 0.125 * D / 6, on_step=steps.append)
-    assert len(steps) >= 8 and pr.travel == pytest.approx(0.3)
+    pr.roll_at_load(load, 0.16, 0.125 * D / 6, on_step=steps.append)
+    assert len(steps) >= 5 and pr.travel == pytest.approx(0.16)
     for st in steps:
         assert abs(st.QV / load - 1) <= 1.01 * pr.load_rtol, st
         assert abs(st.moment) <= 1.01 * pr.moment_rtol * load * D, st
