@@ -1,5 +1,6 @@
 """Steady rolling in the load's frame (the stationary method): plane strain, a Hertz line pressure
-moving over an elastoplastic soil, solved directly for the state that travels with the load.
+or a frictionless rigid cylinder moving over an elastoplastic soil, solved directly for the state
+that travels with the load.
 
 The load is fixed at x = 0 on the surface y = 0 and the soil flows through a window in -x: it
 enters undisturbed at the front face x = x_in (``u = 0`` there, optionally with a geostatic
@@ -46,6 +47,7 @@ from petsc4py import PETSc
 from rollsim import compat
 from rollsim.log import get_logger
 
+from .contact import DEFAULT_PENALTY, Circle, ufl_signed_distance
 from .materials import admissible_k0
 from .problem import mandel_strain
 from .return_map import elastic_stiffness, return_map
@@ -213,9 +215,10 @@ class StreamlineState:
 
 @dataclass
 class SteadyRollingResult:
-    """A converged steady state under the Hertz pressure of peak ``peak_pressure`` (Pa)."""
+    """A converged steady state under the Hertz pressure of peak ``peak_pressure`` (Pa), or under
+    the rigid cylinder at ``sinkage`` (m) carrying ``vertical_force`` (N/m, upward on the wheel)."""
 
-    peak_pressure: float
+    peak_pressure: float | None
     newton_iterations: int
     krylov_iterations: int
     sweeps: int                           # residual and tangent-linear sweeps
@@ -223,12 +226,21 @@ class SteadyRollingResult:
     outflow: StreamlineState              # the state leaving the window (the next pass's inflow)
     max_accumulated_plastic_strain: float  # over the window
     residual_norms: list[float] = field(default_factory=list)   # relative to the load vector's norm
+    sinkage: float | None = None
+    vertical_force: float | None = None
 
 
 class SteadyRolling:
-    """Steady rolling of a Hertz line pressure ``p(x) = p0 sqrt(1 - (x/half_width)^2)`` (Pa, m) over
-    the soil of ``mesh`` (from :func:`rolling_window_mesh`: structured, aligned with x) in plane
-    strain, in the load's frame (module docstring).
+    """Steady rolling of a Hertz line pressure ``p(x) = p0 sqrt(1 - (x/half_width)^2)`` (Pa, m), or
+    of a frictionless rigid cylinder ``wheel`` (a :class:`~rollsim.solver.contact.Circle`) whose
+    axle is held above x = 0 (:meth:`solve_sinkage`), over the soil of ``mesh`` (from
+    :func:`rolling_window_mesh`: structured, aligned with x) in plane strain, in the load's frame
+    (module docstring).  Give exactly one of ``half_width`` and ``wheel``.
+
+    The cylinder presses on the surface through the penalty law of
+    :class:`~rollsim.solver.contact.RigidWheelContact`: ``p_N = kappa <-g>_+`` on the gap ``g``
+    of the surface point at ``x + u``, ``kappa = penalty E / h`` (``h`` the smallest cell size at
+    the surface); the law has no history, so its term and its derivative are local.
 
     ``material``: ``VonMises`` or ``DruckerPrager``.  ``unit_weight`` (N/m^3) > 0 adds gravity and
     the geostatic stress ``sigma_v = -gamma depth``, ``sigma_h = K0 sigma_v`` (K0 as
@@ -238,7 +250,8 @@ class SteadyRolling:
     ``options_prefix``.
     """
 
-    def __init__(self, mesh, material, half_width: float, *, degree: int = 2,
+    def __init__(self, mesh, material, half_width: float | None = None, *, wheel: Circle | None = None,
+                 penalty: float = DEFAULT_PENALTY, degree: int = 2,
                  quadrature_degree: int | None = None, unit_weight: float = 0.0, K0: float | None = None,
                  control: NewtonKrylovControl | None = None, petsc_options: dict | None = None,
                  options_prefix: str = "rollsim_steady_"):
@@ -250,11 +263,18 @@ class SteadyRolling:
         if compat.cell_name(mesh) != "quadrilateral":
             raise ValueError("steady rolling needs a structured quadrilateral mesh, got "
                              f"{compat.cell_name(mesh)} cells")
-        if not (math.isfinite(half_width) and half_width > 0):
+        if (half_width is None) == (wheel is None):
+            raise ValueError("give exactly one load: the Hertz pressure's half_width or a rigid wheel")
+        if half_width is not None and not (math.isfinite(half_width) and half_width > 0):
             raise ValueError(f"half_width must be a positive length (m), got {half_width!r}")
+        if wheel is not None and not isinstance(wheel, Circle):
+            raise TypeError(f"wheel must be a Circle (plane strain), got {type(wheel).__name__}")
+        if not (math.isfinite(penalty) and penalty > 0):
+            raise ValueError(f"penalty must be a positive factor, got {penalty!r}")
         if not (math.isfinite(unit_weight) and unit_weight >= 0):
             raise ValueError(f"unit_weight must be >= 0 (N/m^3), got {unit_weight!r}")
-        self.mesh, self.material, self.half_width = mesh, material, float(half_width)
+        self.mesh, self.material, self.wheel = mesh, material, wheel
+        self.half_width = None if half_width is None else float(half_width)
         self.control = control or NewtonKrylovControl()
         self.qdeg = 2 * degree if quadrature_degree is None else quadrature_degree
         self.D = elastic_stiffness(material, _NCOMP)
@@ -299,10 +319,22 @@ class SteadyRolling:
 
         v, w = ufl.TestFunction(self.V), ufl.TrialFunction(self.V)
         X = ufl.SpatialCoordinate(mesh)
-        self.peak = fem.Constant(mesh, PETSc.ScalarType(0.0))
-        pressure = self.peak * ufl.sqrt(ufl.max_value(1.0 - (X[0] / self.half_width) ** 2, 0.0))
-        # the pressure's square-root ends need more points than the displacement's degree
-        load = pressure * v[1] * ds(1, metadata={"quadrature_degree": 4 * degree + 4})
+        # the pressure's square-root ends and the contact's edge need more points than the displacement's degree
+        ds_top = ds(1, metadata={"quadrature_degree": 4 * degree + 4})
+        self._contact_stiffness = None
+        if wheel is None:
+            self.peak = fem.Constant(mesh, PETSc.ScalarType(0.0))
+            pressure = self.peak * ufl.sqrt(ufl.max_value(1.0 - (X[0] / self.half_width) ** 2, 0.0))
+            load = pressure * v[1] * ds_top
+        else:
+            self.axle_height = fem.Constant(mesh, PETSc.ScalarType(self.surface + wheel.diameter / 2))
+            h = float(np.diff(np.unique(np.round(x[:, 0], 12))).min())
+            self.kappa = penalty * material.E / h
+            gap, normal = ufl_signed_distance(wheel, X + self.u - ufl.as_vector([0.0, self.axle_height]))
+            traction = self.kappa * ufl.max_value(-gap, 0.0) * normal          # on the soil
+            load = -ufl.inner(traction, v) * ds_top
+            self._vertical_force = fem.form(-traction[1] * ds_top)
+            self._contact_stiffness = fem.form(ufl.derivative(load, self.u, w))
         if unit_weight:
             load += unit_weight * v[1] * dx
         eps_v = mandel_strain(v, 2)
@@ -319,7 +351,10 @@ class SteadyRolling:
         self._fixed = (fixed[:, None] * bs + np.arange(bs)).reshape(-1)     # unrolled dof indices
         self._tie = self._rear_tie()
         self._elastic_matrix = self._reduced_matrix(K)
-        K.destroy()
+        if wheel is None:
+            K.destroy()
+            K = None
+        self._elastic_full = K               # under a wheel, the contact's stiffness is added to it
         self._full = self._b.duplicate()
 
         self.inflow = self._geostatic_state(unit_weight, K0)
@@ -328,6 +363,8 @@ class SteadyRolling:
         self._ksp = self._krylov_solver()
         self._fields: tuple | None = None
         self._counts = {"sweeps": 0, "krylov": 0}
+        self._contact_matrix: PETSc.Mat | None = None
+        self._preconditioner_matrix: PETSc.Mat | None = None
 
     # ------------------------------------------------------------------ set-up
     def _streamlines(self) -> tuple[np.ndarray, np.ndarray]:
@@ -502,12 +539,32 @@ class SteadyRolling:
         self._tie.multTranspose(self._assemble(self._F, self._full), self._b)
         return self._b
 
+    def _update_contact(self) -> None:
+        """The contact's stiffness at the current displacement, in the Jacobian action and the
+        preconditioner (the elastic stiffness plus it, factored again)."""
+        if self._contact_matrix is not None:
+            self._contact_matrix.destroy()
+        # zero on the fixed dofs' diagonal: the elastic stiffness has its ones there
+        self._contact_matrix = fpetsc.assemble_matrix(self._contact_stiffness, bcs=self.bcs, diagonal=0.0)
+        self._contact_matrix.assemble()
+        M = self._elastic_full.copy()
+        M.axpy(1.0, self._contact_matrix, structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
+        self._preconditioner_matrix, previous = self._reduced_matrix(M), self._preconditioner_matrix
+        M.destroy()
+        self._ksp.setOperators(self._jacobian, self._preconditioner_matrix)
+        if previous is not None:
+            previous.destroy()
+
     def jacobian_action(self, x: PETSc.Vec, y: PETSc.Vec) -> None:
         """``y = P^T J P x`` at the state of the last residual (identity on the fixed and tied dofs)."""
-        self._tie.mult(x, compat.petsc_vector(self._du))
+        du = compat.petsc_vector(self._du)
+        self._tie.mult(x, du)
         self._du.x.array[self._fixed] = 0.0
         self._tangent_sweep()
-        self._tie.multTranspose(self._assemble(self._Jv, self._full), y)
+        self._assemble(self._Jv, self._full)
+        if self._contact_matrix is not None:
+            self._contact_matrix.multAdd(du, self._full, self._full)
+        self._tie.multTranspose(self._full, y)
         keep = np.concatenate([self._fixed, self._slaves])
         y.array[keep] = x.array_r[keep]
 
@@ -516,20 +573,49 @@ class SteadyRolling:
         """The steady state under the peak pressure ``peak_pressure`` (Pa) with the soil entering
         in the state ``inflow`` (default: undisturbed, :attr:`inflow`), from zero displacement.
         Raises :class:`NoSteadyState` when Newton-Krylov does not converge."""
+        if self.wheel is not None:
+            raise RuntimeError("this steady solve rolls a rigid wheel: call solve_sinkage()")
         if not (math.isfinite(peak_pressure) and peak_pressure > 0):
             raise ValueError(f"peak_pressure must be a positive pressure (Pa), got {peak_pressure!r}")
+        self.peak.value = peak_pressure
+        self.u.x.array[:] = 0.0
+        result = self._newton(inflow, f"under the peak pressure {peak_pressure:.6g} Pa")
+        result.peak_pressure = float(peak_pressure)
+        return result
+
+    def solve_sinkage(self, sinkage: float, inflow: StreamlineState | None = None) -> SteadyRollingResult:
+        """The steady state under the rigid wheel with its lowest point ``sinkage`` (m) below the
+        undisturbed surface, and the vertical force on it; Newton starts from the last solve's
+        displacement (continuation: step the sinkage up).  ``inflow`` as in :meth:`solve`."""
+        if self.wheel is None:
+            raise RuntimeError("this steady solve rolls a Hertz pressure: call solve()")
+        if not (math.isfinite(sinkage) and sinkage > 0):
+            raise ValueError(f"sinkage must be a positive depth (m), got {sinkage!r}")
+        self.axle_height.value = self.surface + self.wheel.diameter / 2 - sinkage
+        result = self._newton(inflow, f"at the sinkage {sinkage:.6g} m")
+        result.sinkage = float(sinkage)
+        result.vertical_force = float(fem.assemble_scalar(self._vertical_force))
+        return result
+
+    def _load_norm(self) -> float:
+        """Norm of the load vector (N/m) at the current displacement (the contact's depends on it)."""
+        load = self._b.duplicate()
+        self._tie.multTranspose(self._assemble(self._load, self._full), load)
+        norm = load.norm()
+        load.destroy()
+        return norm
+
+    def _newton(self, inflow: StreamlineState | None, load_text: str) -> SteadyRollingResult:
+        """Newton-Krylov from the current displacement to the steady state under the load set."""
         inflow = self.inflow if inflow is None else inflow
         if inflow.stress.shape[0] != len(self.streamline_depths):
             raise ValueError(f"inflow state has {inflow.stress.shape[0]} streamlines, the mesh "
                              f"{len(self.streamline_depths)}")
         ctl = self.control
+        contact = self.wheel is not None
         t0 = time.perf_counter()
         self._counts = {"sweeps": 0, "krylov": 0}
-        self.peak.value = peak_pressure
-        load = self._b.duplicate()
-        self._tie.multTranspose(self._assemble(self._load, self._full), load)
-        scale = load.norm()
-        self.u.x.array[:] = 0.0
+        scale = self._load_norm()
         b = self.residual(inflow)
         norm = b.norm()
         history = [norm / scale]
@@ -537,10 +623,12 @@ class SteadyRolling:
         it = 0
         while not history[-1] <= ctl.rtol:
             if not math.isfinite(norm):
-                self._fail(peak_pressure, "the residual is not finite")
+                self._fail(load_text, "the residual is not finite")
             if it == ctl.max_iterations:
-                self._fail(peak_pressure, f"Newton-Krylov did not converge in {it} iterations (residual "
-                                          f"{history[-1]:.2e} of the load's, wanted {ctl.rtol:.0e})")
+                self._fail(load_text, f"Newton-Krylov did not converge in {it} iterations (residual "
+                                      f"{history[-1]:.2e} of the load's, wanted {ctl.rtol:.0e})")
+            if contact:
+                self._update_contact()
             rhs = b.copy()
             rhs.scale(-1.0)
             self._ksp.setTolerances(atol=0.1 * ctl.rtol * scale)
@@ -561,16 +649,18 @@ class SteadyRolling:
                     break
                 alpha *= 0.5
                 if alpha < ctl.min_step:
-                    self._fail(peak_pressure, f"no Newton step lowers the residual ({norm / scale:.2e} of the "
-                                              f"load's after {it} iterations)")
+                    self._fail(load_text, f"no Newton step lowers the residual ({norm / scale:.2e} of the "
+                                          f"load's after {it} iterations)")
             norm = trial
+            if contact:
+                scale = self._load_norm()
             it += 1
             history.append(norm / scale)
-            log.debug("steady rolling p0 = %.4g Pa: Newton %d, residual %.3e, step %.3g, GMRES %d", peak_pressure,
+            log.debug("steady rolling %s: Newton %d, residual %.3e, step %.3g, GMRES %d", load_text,
                       it, history[-1], alpha, self._ksp.getIterationNumber())
         S, EP, ACC = self._fields
         outflow = StreamlineState(S[:, -1].copy(), EP[:, -1].copy(), ACC[:, -1].copy())
-        return SteadyRollingResult(peak_pressure=float(peak_pressure), newton_iterations=it,
+        return SteadyRollingResult(peak_pressure=None, newton_iterations=it,
                                    krylov_iterations=self._counts["krylov"], sweeps=self._counts["sweeps"],
                                    wall_time=time.perf_counter() - t0, outflow=outflow,
                                    max_accumulated_plastic_strain=float(ACC.max()), residual_norms=history)
@@ -588,9 +678,9 @@ class SteadyRolling:
         return results
 
     @staticmethod
-    def _fail(peak_pressure: float, cause: str) -> None:
-        raise NoSteadyState(f"no steady state under the peak pressure {peak_pressure:.6g} Pa: {cause}; the load "
-                            "may exceed the soil's plastic limit (it would keep ploughing)")
+    def _fail(load_text: str, cause: str) -> None:
+        raise NoSteadyState(f"no steady state {load_text}: {cause}; the load may exceed the soil's plastic limit "
+                            "(it would keep ploughing)")
 
     # ------------------------------------------------------------------ fields of the last solve
     @property
