@@ -1,6 +1,6 @@
 """Steady rolling in the load's frame (the stationary method): plane strain, a Hertz line pressure
-or a frictionless rigid cylinder moving over an elastoplastic soil, solved directly for the state
-that travels with the load.
+or a rigid cylinder (penalty contact, optionally Coulomb friction) moving over an elastoplastic
+soil, solved directly for the state that travels with the load.
 
 The load is fixed at x = 0 on the surface y = 0 and the soil flows through a window in -x: it
 enters undisturbed at the front face x = x_in (``u = 0`` there, optionally with a geostatic
@@ -53,7 +53,7 @@ from .problem import mandel_strain
 from .return_map import elastic_stiffness, return_map
 
 __all__ = ["RollingWindow", "rolling_window_mesh", "NewtonKrylovControl", "StreamlineState",
-           "SteadyRollingResult", "SteadyRolling", "NoSteadyState", "DEFAULT_STEADY_OPTIONS"]
+           "SteadyRollingResult", "HorizontalBalance", "SteadyRolling", "NoSteadyState", "DEFAULT_STEADY_OPTIONS"]
 
 log = get_logger("solver")
 
@@ -216,7 +216,8 @@ class StreamlineState:
 @dataclass
 class SteadyRollingResult:
     """A converged steady state under the Hertz pressure of peak ``peak_pressure`` (Pa), or under
-    the rigid cylinder at ``sinkage`` (m) carrying ``vertical_force`` (N/m, upward on the wheel)."""
+    the rigid cylinder at ``sinkage`` (m) carrying ``vertical_force`` (N/m, upward on the wheel)
+    and towed by ``towing_force`` (N/m, positive against the travel)."""
 
     peak_pressure: float | None
     newton_iterations: int
@@ -228,14 +229,39 @@ class SteadyRollingResult:
     residual_norms: list[float] = field(default_factory=list)   # relative to the load vector's norm
     sinkage: float | None = None
     vertical_force: float | None = None
+    towing_force: float | None = None     # N/m, Q_H: the horizontal force on the axle that keeps the wheel rolling
+    spin: float | None = None             # the wheel's xi = omega R / V (-)
+    axle_torque: float | None = None      # N m/m, the contact's moment on the wheel about the axle (counter-clockwise)
+
+
+@dataclass(frozen=True)
+class HorizontalBalance:
+    """The horizontal forces on the soil window's faces (N/m): the axial resultants
+    ``int sigma_xx dy`` over the outflow and the inflow faces and the base's shear
+    ``int sigma_xy dx``.  Their balance gives the towing force :attr:`towing_force`."""
+
+    outflow_axial: float
+    inflow_axial: float
+    base_shear: float
+
+    def __post_init__(self):
+        for name in ("outflow_axial", "inflow_axial", "base_shear"):
+            if not math.isfinite(getattr(self, name)):
+                raise ValueError(f"{name} must be a finite force (N/m), got {getattr(self, name)!r}")
+
+    @property
+    def towing_force(self) -> float:
+        """``Q_H = int_out sigma_xx - int_in sigma_xx + int_base sigma_xy`` (N/m): the window's
+        horizontal equilibrium (outward normals -e_x, +e_x and -e_y; no horizontal body force)."""
+        return self.outflow_axial - self.inflow_axial + self.base_shear
 
 
 class SteadyRolling:
     """Steady rolling of a Hertz line pressure ``p(x) = p0 sqrt(1 - (x/half_width)^2)`` (Pa, m), or
-    of a frictionless rigid cylinder ``wheel`` (a :class:`~rollsim.solver.contact.Circle`) whose
-    axle is held above x = 0 (:meth:`solve_sinkage`), over the soil of ``mesh`` (from
-    :func:`rolling_window_mesh`: structured, aligned with x) in plane strain, in the load's frame
-    (module docstring).  Give exactly one of ``half_width`` and ``wheel``.
+    of a rigid cylinder ``wheel`` (a :class:`~rollsim.solver.contact.Circle`) whose axle is held
+    above x = 0 (:meth:`solve_sinkage`, :meth:`solve_free_rolling`, :meth:`solve_load`), over the
+    soil of ``mesh`` (from :func:`rolling_window_mesh`: structured, aligned with x) in plane
+    strain, in the load's frame (module docstring).  Give exactly one of ``half_width`` and ``wheel``.
 
     The cylinder presses on the surface through the penalty law of
     :class:`~rollsim.solver.contact.RigidWheelContact`: ``p_N = kappa <-g>_+`` on the gap ``g``
@@ -251,7 +277,7 @@ class SteadyRolling:
     """
 
     def __init__(self, mesh, material, half_width: float | None = None, *, wheel: Circle | None = None,
-                 penalty: float = DEFAULT_PENALTY, degree: int = 2,
+                 penalty: float = DEFAULT_PENALTY, friction: float = 0.0, degree: int = 2,
                  quadrature_degree: int | None = None, unit_weight: float = 0.0, K0: float | None = None,
                  control: NewtonKrylovControl | None = None, petsc_options: dict | None = None,
                  options_prefix: str = "rollsim_steady_"):
@@ -271,9 +297,18 @@ class SteadyRolling:
             raise TypeError(f"wheel must be a Circle (plane strain), got {type(wheel).__name__}")
         if not (math.isfinite(penalty) and penalty > 0):
             raise ValueError(f"penalty must be a positive factor, got {penalty!r}")
+        if not (math.isfinite(friction) and friction >= 0):
+            raise ValueError(f"friction must be a Coulomb coefficient >= 0, got {friction!r}")
+        if friction and wheel is None:
+            raise ValueError("friction needs a rigid wheel (the Hertz pressure is frictionless)")
         if not (math.isfinite(unit_weight) and unit_weight >= 0):
             raise ValueError(f"unit_weight must be >= 0 (N/m^3), got {unit_weight!r}")
         self.mesh, self.material, self.wheel = mesh, material, wheel
+        self.friction = float(friction)
+        #: the wheel's dimensionless spin ``xi = omega R / V`` (-; ``omega`` in the rolling sense, 1:
+        #: rolling without slip on a rigid surface)
+        self.spin = 1.0
+        self._last_sinkage: float | None = None
         self.half_width = None if half_width is None else float(half_width)
         self.control = control or NewtonKrylovControl()
         self.qdeg = 2 * degree if quadrature_degree is None else quadrature_degree
@@ -310,6 +345,9 @@ class SteadyRolling:
         top = dmesh.locate_entities_boundary(mesh, fdim, lambda p: np.abs(p[1] - self.surface) < tol)
         rear = dmesh.locate_entities_boundary(mesh, fdim, lambda p: np.abs(p[0] - self.x_out) < tol)
         fixed = fem.locate_dofs_topological(self.V, fdim, np.unique(np.concatenate([front, base])))
+        #: nodes of the inflow face, and of the base but not the inflow face (their reactions)
+        self._inflow_nodes = fem.locate_dofs_topological(self.V, fdim, front)
+        self._base_nodes = np.setdiff1d(fem.locate_dofs_topological(self.V, fdim, base), self._inflow_nodes)
         self.bcs = [fem.dirichletbc(np.zeros(2, dtype=PETSc.ScalarType), fixed, self.V)]
         facets = np.concatenate([top, rear])
         tags = np.concatenate([np.full(len(top), 1, np.int32), np.full(len(rear), 2, np.int32)])
@@ -334,12 +372,14 @@ class SteadyRolling:
             traction = self.kappa * ufl.max_value(-gap, 0.0) * normal          # on the soil
             load = -ufl.inner(traction, v) * ds_top
             self._vertical_force = fem.form(-traction[1] * ds_top)
+            self._towing_force = fem.form(traction[0] * ds_top)
             self._contact_stiffness = fem.form(ufl.derivative(load, self.u, w))
         if unit_weight:
             load += unit_weight * v[1] * dx
         eps_v = mandel_strain(v, 2)
         # the rear face's Gauss points lie on the streamlines: the traction's trace there is exact
         ds_rear = ds(2, metadata={"quadrature_degree": self.qdeg})
+        self._outflow_force = fem.form(self._traction[0] * ds_rear)
         self._F = fem.form(ufl.inner(self._sigma, eps_v) * dx - ufl.inner(self._traction, v) * ds_rear + load)
         self._Jv = fem.form(ufl.inner(self._dsigma, eps_v) * dx - ufl.inner(self._dtraction, v) * ds_rear)
         self._load = fem.form(load)
@@ -356,6 +396,8 @@ class SteadyRolling:
             K = None
         self._elastic_full = K               # under a wheel, the contact's stiffness is added to it
         self._full = self._b.duplicate()
+        if wheel is not None:
+            self._surface_stations()
 
         self.inflow = self._geostatic_state(unit_weight, K0)
         self.petsc_options = {**DEFAULT_STEADY_OPTIONS, **(petsc_options or {})}
@@ -444,6 +486,80 @@ class SteadyRolling:
             Kr.setValue(dof, dof, 1.0)
         Kr.assemble()
         return Kr
+
+    def _surface_stations(self) -> None:
+        """The surface streamline of the friction: the surface nodes from the inflow to the outflow
+        (:attr:`_surface_nodes`, abscissae :attr:`_surface_x`, m) with their Simpson weights
+        (:attr:`_surface_weights`, m: the nodal rule of quadratic Lagrange elements)."""
+        X = self.V.tabulate_dof_coordinates()
+        n_nodes = self.V.dofmap.index_map.size_local
+        top = np.flatnonzero(np.abs(X[:n_nodes, 1] - self.surface) < 1e-9 * (self.x_in - self.x_out))
+        top = top[np.argsort(-X[top, 0])]
+        if len(top) % 2 != 1:
+            raise ValueError("friction needs quadratic Lagrange elements (vertex and mid-side surface nodes)")
+        x = X[top, 0]
+        h = x[:-2:2] - x[2::2]
+        w = np.zeros(len(top))
+        w[:-2:2] += h / 6.0
+        w[1::2] += 4.0 * h / 6.0
+        w[2::2] += h / 6.0
+        self._surface_nodes, self._surface_x, self._surface_weights = top, x, w
+        fixed = np.isin(top, self._fixed // self.V.dofmap.index_map_bs)
+        self._surface_free = ~fixed
+        self._friction_state = None
+
+    def _friction_sweep(self) -> np.ndarray:
+        """March penalty-regularised Coulomb friction along the surface streamline at the current
+        displacement; the nodal forces on the soil (N/m, (nodes, 2)).  The tangential traction on
+        the soil ``t`` (Pa, along ``tau = e_z x n``, ``n`` the wheel's outward normal) takes the
+        trial ``t_prev - k_T dg_T`` of the slip increment of the soil against the wheel's surface
+        between consecutive stations, ``dg = du + dx (1 + xi y_rel / R) e_x - dx xi x_rel / R e_y``
+        (``dx < 0`` the stations' step, ``(x_rel, y_rel)`` the point from the axle), then returns
+        to ``|t| <= mu p_N``; ``k_T = kappa``."""
+        U = self.u.x.array.reshape(-1, 2)[self._surface_nodes]
+        P = np.stack([self._surface_x + U[:, 0], self.surface + U[:, 1] - float(self.axle_height.value)], axis=1)
+        r = np.linalg.norm(P, axis=1)
+        n = P / r[:, None]
+        tau = np.stack([-n[:, 1], n[:, 0]], axis=1)
+        pN = self.kappa * np.maximum(self.wheel.diameter / 2 - r, 0.0)
+        dx = np.diff(self._surface_x, prepend=self._surface_x[0])
+        dU = np.diff(U, axis=0, prepend=U[:1])
+        R = self.wheel.diameter / 2
+        slip = dU + dx[:, None] * (np.array([1.0, 0.0]) - self.spin / R * np.stack([-P[:, 1], P[:, 0]], axis=1))
+        s = np.einsum("ji,ji->j", slip, tau)
+        t, stick = np.zeros(len(r)), np.zeros(len(r), dtype=bool)
+        prev = 0.0
+        for j in range(len(r)):
+            trial = prev - self.kappa * s[j]
+            stick[j] = abs(trial) <= self.friction * pN[j]
+            prev = t[j] = trial if stick[j] else math.copysign(self.friction * pN[j], trial)
+        self._friction_state = (P, r, n, tau, dx, slip, t, stick)
+        return (self._surface_weights * t)[:, None] * tau
+
+    def _friction_tangent(self, dU: np.ndarray) -> np.ndarray:
+        """The derivative of :meth:`_friction_sweep`'s nodal forces (N/m) for the surface nodes'
+        displacement increment ``dU`` (m, (nodes, 2)), at the state of its last call."""
+        P, r, n, tau, dx, slip, t, stick = self._friction_state
+        R = self.wheel.diameter / 2
+        dr = np.einsum("ji,ji->j", n, dU)
+        dn = (dU - n * dr[:, None]) / r[:, None]
+        dtau = np.stack([-dn[:, 1], dn[:, 0]], axis=1)
+        dpN = np.where(r < R, -self.kappa * dr, 0.0)
+        turn = np.stack([-dU[:, 1], dU[:, 0]], axis=1)                         # e_z x dU
+        dslip = np.diff(dU, axis=0, prepend=dU[:1]) - (self.spin / R * dx)[:, None] * turn
+        ds = np.einsum("ji,ji->j", dslip, tau) + np.einsum("ji,ji->j", slip, dtau)
+        dt = np.zeros(len(r))
+        prev = 0.0
+        for j in range(len(r)):
+            prev = dt[j] = prev - self.kappa * ds[j] if stick[j] else self.friction * dpN[j] * np.sign(t[j])
+        w = self._surface_weights[:, None]
+        return w * (dt[:, None] * tau + t[:, None] * dtau)
+
+    def _add_friction(self, b: PETSc.Vec, forces: np.ndarray) -> None:
+        """Subtract the friction's nodal forces on the soil from the residual ``b`` (free nodes)."""
+        nodes = self._surface_nodes[self._surface_free]
+        with b.localForm() as local:
+            local.array.reshape(-1, 2)[nodes] -= forces[self._surface_free]
 
     def _geostatic_state(self, unit_weight: float, K0: float | None) -> StreamlineState:
         rows = len(self.streamline_depths)
@@ -536,7 +652,10 @@ class SteadyRolling:
     def residual(self, inflow: StreamlineState) -> PETSc.Vec:
         """The residual (N/m) of the current displacement, ``P^T R``: sweep, then assemble."""
         self._sweep(inflow)
-        self._tie.multTranspose(self._assemble(self._F, self._full), self._b)
+        self._assemble(self._F, self._full)
+        if self.wheel is not None:
+            self._add_friction(self._full, self._friction_sweep())
+        self._tie.multTranspose(self._full, self._b)
         return self._b
 
     def _update_contact(self) -> None:
@@ -564,6 +683,8 @@ class SteadyRolling:
         self._assemble(self._Jv, self._full)
         if self._contact_matrix is not None:
             self._contact_matrix.multAdd(du, self._full, self._full)
+        if self.wheel is not None:
+            self._add_friction(self._full, self._friction_tangent(self._du.x.array.reshape(-1, 2)[self._surface_nodes]))
         self._tie.multTranspose(self._full, y)
         keep = np.concatenate([self._fixed, self._slaves])
         y.array[keep] = x.array_r[keep]
@@ -585,17 +706,105 @@ class SteadyRolling:
 
     def solve_sinkage(self, sinkage: float, inflow: StreamlineState | None = None) -> SteadyRollingResult:
         """The steady state under the rigid wheel with its lowest point ``sinkage`` (m) below the
-        undisturbed surface, and the vertical force on it; Newton starts from the last solve's
-        displacement (continuation: step the sinkage up).  ``inflow`` as in :meth:`solve`."""
+        undisturbed surface, turning at :attr:`spin`, with the contact's forces and torque on it;
+        Newton starts from the last solve's displacement (continuation: step the sinkage up).
+        ``inflow`` as in :meth:`solve`."""
         if self.wheel is None:
             raise RuntimeError("this steady solve rolls a Hertz pressure: call solve()")
         if not (math.isfinite(sinkage) and sinkage > 0):
             raise ValueError(f"sinkage must be a positive depth (m), got {sinkage!r}")
         self.axle_height.value = self.surface + self.wheel.diameter / 2 - sinkage
         result = self._newton(inflow, f"at the sinkage {sinkage:.6g} m")
-        result.sinkage = float(sinkage)
+        result.sinkage = self._last_sinkage = float(sinkage)
         result.vertical_force = float(fem.assemble_scalar(self._vertical_force))
+        result.towing_force = float(fem.assemble_scalar(self._towing_force))
+        forces = self._friction_sweep()                         # on the soil, at the converged state
+        P = self._friction_state[0]
+        result.vertical_force -= float(forces[:, 1].sum())
+        result.towing_force += float(forces[:, 0].sum())
+        result.spin = self.spin
+        result.axle_torque = -float(np.sum(P[:, 0] * forces[:, 1] - P[:, 1] * forces[:, 0]))
         return result
+
+    def solve_free_rolling(self, sinkage: float, inflow: StreamlineState | None = None, *,
+                           torque_rtol: float = 1e-6, max_iterations: int = 20) -> SteadyRollingResult:
+        """The steady state of the towed (free-rolling) wheel at ``sinkage`` (m): the spin
+        :attr:`spin` found by a secant iteration on zero axle torque, each solve from the last
+        (continuation), to ``|torque| <= torque_rtol R Q_V``."""
+        if not (isinstance(max_iterations, int) and max_iterations >= 1):
+            raise ValueError(f"max_iterations must be an integer >= 1, got {max_iterations!r}")
+        if not 0 < torque_rtol < 1:
+            raise ValueError(f"torque_rtol must lie in (0, 1), got {torque_rtol!r}")
+        R = self.wheel.diameter / 2
+        result = self.solve_sinkage(sinkage, inflow)
+        last, step = None, 1e-3
+        for _ in range(max_iterations):
+            if abs(result.axle_torque) <= torque_rtol * R * abs(result.vertical_force):
+                return result
+            if last is not None:
+                slope = (result.axle_torque - last.axle_torque) / (result.spin - last.spin)
+                if slope == 0:
+                    break
+                step = -result.axle_torque / slope
+            u = self.u.x.array.copy()
+            while True:
+                self.spin = result.spin + step
+                try:
+                    trial = self.solve_sinkage(sinkage, inflow)
+                    break
+                except NoSteadyState:
+                    # the stick-slip pattern jumped too far: back to the last state, half the step
+                    self.u.x.array[:] = u
+                    step *= 0.5
+                    if abs(step) < 1e-9:
+                        self.spin = result.spin
+                        raise
+            last, result = result, trial
+        raise NoSteadyState(f"no free-rolling spin at the sinkage {sinkage:.6g} m: the axle torque stayed at "
+                            f"{result.axle_torque:.3e} N m/m after {max_iterations} solves")
+
+    def solve_load(self, load: float, inflow: StreamlineState | None = None, *, initial_sinkage: float | None = None,
+                   free_rolling: bool = False, rtol: float = 1e-6, max_iterations: int = 20) -> SteadyRollingResult:
+        """The steady state of the wheel carrying the vertical force ``load`` (N/m): the sinkage
+        found by a secant iteration on ``Q_V(sinkage) = load`` to ``|Q_V - load| <= rtol load``,
+        from ``initial_sinkage`` (m; default: the last solve's), each solve from the converged state at
+        the deepest sinkage tried short of it (stepping up keeps the contact).  With
+        ``free_rolling`` every sinkage is solved by :meth:`solve_free_rolling`, else at the
+        current :attr:`spin`."""
+        if not (math.isfinite(load) and load > 0):
+            raise ValueError(f"load must be a positive force (N/m), got {load!r}")
+        if not 0 < rtol < 1:
+            raise ValueError(f"rtol must lie in (0, 1), got {rtol!r}")
+        if not (isinstance(max_iterations, int) and max_iterations >= 1):
+            raise ValueError(f"max_iterations must be an integer >= 1, got {max_iterations!r}")
+        sinkage = self._last_sinkage if initial_sinkage is None else initial_sinkage
+        if sinkage is None:
+            raise ValueError("give an initial_sinkage (m): no sinkage has been solved yet")
+        solve = self.solve_free_rolling if free_rolling else self.solve_sinkage
+        states = {}                     # converged displacements by sinkage: each solve starts from a shallower one
+
+        def solve_at(sinkage: float) -> SteadyRollingResult:
+            shallower = [s for s in states if s < sinkage]
+            if shallower:
+                self.u.x.array[:] = states[max(shallower)]
+            elif self._last_sinkage is not None and self._last_sinkage > sinkage:
+                self.u.x.array[:] = 0.0
+            result = solve(sinkage, inflow)
+            states[result.sinkage] = self.u.x.array.copy()
+            return result
+
+        result, last = solve_at(sinkage), None
+        for _ in range(max_iterations):
+            if abs(result.vertical_force - load) <= rtol * load:
+                return result
+            if last is None:            # the first step as if Q_V were proportional to the sinkage
+                step = result.sinkage * (load / result.vertical_force - 1.0)
+            else:
+                step = (load - result.vertical_force) * (result.sinkage - last.sinkage) / (
+                    result.vertical_force - last.vertical_force)
+            last, result = result, solve_at(max(result.sinkage + step, 0.5 * result.sinkage))
+        raise NoSteadyState(f"no sinkage carries the load {load:.6g} N/m: Q_V = {result.vertical_force:.6g} N/m "
+                            f"after {max_iterations} solves")
 
     def _load_norm(self) -> float:
         """Norm of the load vector (N/m) at the current displacement (the contact's depends on it)."""
@@ -705,6 +914,23 @@ class SteadyRolling:
         flat = np.empty((self.n_qp,) + values.shape[2:])
         flat[self._order] = values
         return flat
+
+    def horizontal_balance(self) -> HorizontalBalance:
+        """The window's horizontal resultants (N/m) of the last solve: the outflow face's from its
+        traction (the swept stress at the last stations), the inflow face's and the base's as the
+        consistent reactions of their fixed nodes (the residual there, the discrete ``int sigma n``)."""
+        if self._fields is None:
+            raise RuntimeError("no steady state computed yet: call solve() first")
+        reaction = self._full.duplicate()
+        with reaction.localForm() as local:
+            local.set(0.0)
+        fpetsc.assemble_vector(reaction, self._F)
+        reaction.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
+        r = reaction.array_r.reshape(-1, 2)[:, 0]
+        inflow, base = float(r[self._inflow_nodes].sum()), float(r[self._base_nodes].sum())
+        reaction.destroy()
+        outflow = -float(fem.assemble_scalar(self._outflow_force))
+        return HorizontalBalance(outflow_axial=outflow, inflow_axial=inflow, base_shear=-base)
 
     def surface_displacement(self) -> tuple[np.ndarray, np.ndarray]:
         """``(x, u)`` of the displacement's nodes on the surface, ordered by x (m, m)."""

@@ -342,3 +342,128 @@ def test_steady_rolling_is_serial_for_now(comm):
             SteadyRolling(msh, SOIL, 1.0)
     else:
         assert SteadyRolling(msh, SOIL, 1.0).streamline_depths.shape == (3 * len(window.y_nodes()) - 3,)
+
+
+@pytest.mark.serial
+def test_towing_force_of_a_cylinder_balances_the_window_and_grows_with_plastic_sinkage():
+    """Von Mises soil under the frictionless rigid cylinder, the sinkage stepped up from 2 to 12 mm:
+    the towing force from the contact equals the window's horizontal balance (outflow traction,
+    inflow and base reactions; measured: within 2e-9 N/m, 1e-9 of the largest resultant), resists
+    the travel and grows with the sinkage (measured: Q_H = 2e-5, 1e-4, 3.2e-4, 2.0e-3, 5.9e-3,
+    1.35e-2 N/m; 1.5e-3 of Q_V at 12 mm).  Measured: 1.6 s."""
+    window = RollingWindow(half_width=1.0, ahead=4.0, behind=6.0, depth=6.0, cells_per_half_width=2)
+    st = SteadyRolling(rolling_window_mesh(MPI.COMM_SELF, window), SOIL, wheel=WHEEL)
+    towing = []
+    for sinkage in 0.002 * np.arange(1, 7):
+        res = st.solve_sinkage(sinkage)
+        balance = st.horizontal_balance()
+        scale = max(abs(balance.outflow_axial), abs(balance.inflow_axial), abs(balance.base_shear))
+        assert balance.towing_force == pytest.approx(res.towing_force, abs=1e-7 * scale)
+        towing.append(res.towing_force)
+    assert res.max_accumulated_plastic_strain > 0
+    assert np.all(np.diff(towing) > 0), towing
+    assert towing[-1] > 1e-3 * res.vertical_force
+
+
+@pytest.mark.serial
+def test_an_elastic_soil_does_not_resist_the_rolling_cylinder():
+    """Without dissipation the steady state is the static indentation: the towing force vanishes up
+    to the window's fore-aft asymmetry (measured on a window as long ahead as behind: Q_H =
+    3.5e-4 N/m = 4e-5 Q_V at 12 mm, ten times less than 2 m shorter ahead), and the balance holds.
+    Measured: 0.3 s."""
+    window = RollingWindow(half_width=1.0, ahead=6.0, behind=6.0, depth=6.0, cells_per_half_width=2)
+    st = SteadyRolling(rolling_window_mesh(MPI.COMM_SELF, window), NEVER_YIELDS, wheel=WHEEL)
+    res = st.solve_sinkage(0.012)
+    assert abs(res.towing_force) < 1e-4 * res.vertical_force
+    assert st.horizontal_balance().towing_force == pytest.approx(res.towing_force, abs=1e-7 * res.vertical_force)
+
+
+#: the window of the friction checks: as long ahead as behind (no fore-aft asymmetry in Q_H)
+FRICTION_WINDOW = RollingWindow(half_width=1.0, ahead=6.0, behind=6.0, depth=6.0, cells_per_half_width=2)
+
+
+@pytest.mark.serial
+def test_frictionless_free_rolling_is_the_frictionless_solve():
+    """With mu = 0 the friction's sweep carries no traction: the free-rolling solve stops at its
+    first spin (xi = 1, zero torque) with the frictionless forces.  Measured: 1.9 s."""
+    st = SteadyRolling(rolling_window_mesh(MPI.COMM_SELF, FRICTION_WINDOW), SOIL, wheel=WHEEL, friction=0.0)
+    frictionless = SteadyRolling(st.mesh, SOIL, wheel=WHEEL)
+    for sinkage in (0.006, 0.012):
+        res, ref = st.solve_free_rolling(sinkage), frictionless.solve_sinkage(sinkage)
+    assert res.spin == 1.0 and res.axle_torque == 0.0
+    assert res.vertical_force == pytest.approx(ref.vertical_force, rel=1e-12)
+    assert res.towing_force == pytest.approx(ref.towing_force, rel=1e-9)
+
+
+@pytest.mark.serial
+def test_free_rolling_on_elastic_soil_neither_resists_nor_needs_torque():
+    """A towed cylinder with Coulomb friction (mu = 0.3) on elastic soil at 12 mm: the spin that
+    zeroes the axle torque leaves no towing force (measured: Q_H = 3.3e-4 N/m = 4e-5 Q_V, the
+    frictionless 3.5e-4; torque 2e-8 N m/m), the wheel turns a little slower than rolling without
+    slip on a rigid surface (measured: xi = 0.99895), and the window balance still holds.  Held at
+    xi = 1 instead, the wheel needs a torque and pulls itself forward (measured: 208 N m/m,
+    Q_H = -1.4 N/m).  Measured: 2 s."""
+    st = SteadyRolling(rolling_window_mesh(MPI.COMM_SELF, FRICTION_WINDOW), NEVER_YIELDS, wheel=WHEEL,
+                       friction=0.3)
+    for sinkage in (0.004, 0.008):
+        st.solve_sinkage(sinkage)
+    held = st.solve_sinkage(0.012)
+    assert held.axle_torque > 0 and held.towing_force < -0.1
+    res = st.solve_free_rolling(0.012)
+    R = WHEEL.diameter / 2
+    assert abs(res.axle_torque) <= 1e-6 * R * res.vertical_force
+    assert abs(res.towing_force) < 1e-4 * res.vertical_force
+    assert 0.998 < res.spin < 1.0
+    assert st.horizontal_balance().towing_force == pytest.approx(res.towing_force, abs=1e-7 * res.vertical_force)
+
+
+@pytest.mark.serial
+def test_free_rolling_on_plastic_soil_resists_more_than_frictionless():
+    """The towed cylinder (mu = 0.3) on von Mises soil at 12 mm: zero torque at xi = 0.99832
+    (measured), towing force 1.19e-2 N/m against 1.11e-2 without friction (measured), both
+    balanced by the window.  Measured: 8 s."""
+    st = SteadyRolling(rolling_window_mesh(MPI.COMM_SELF, FRICTION_WINDOW), SOIL, wheel=WHEEL, friction=0.3)
+    frictionless = SteadyRolling(st.mesh, SOIL, wheel=WHEEL)
+    for sinkage in (0.004, 0.008):
+        st.solve_sinkage(sinkage)
+        frictionless.solve_sinkage(sinkage)
+    res, ref = st.solve_free_rolling(0.012), frictionless.solve_sinkage(0.012)
+    assert abs(res.axle_torque) <= 1e-6 * WHEEL.diameter / 2 * res.vertical_force
+    assert res.spin < 1.0
+    assert res.towing_force > ref.towing_force > 0
+    assert st.horizontal_balance().towing_force == pytest.approx(res.towing_force, abs=1e-7 * res.vertical_force)
+
+
+@pytest.mark.serial
+def test_constant_load_finds_the_sinkage_that_carries_it():
+    """Von Mises soil under the frictionless cylinder carrying 7 N/m, from the 8 mm state: the
+    secant on the sinkage finds 9.784 mm (measured: 3 solves after the start, Q_V within 1.5e-9 of
+    the load), and a solve at that sinkage stepped up from 4 and 8 mm gives the same forces
+    (measured: Q_V to 5e-10, Q_H = 5.36e-3 N/m to 2e-9, relative).  Measured: 3 s."""
+    window = RollingWindow(half_width=1.0, ahead=4.0, behind=6.0, depth=6.0, cells_per_half_width=2)
+    st = SteadyRolling(rolling_window_mesh(MPI.COMM_SELF, window), SOIL, wheel=WHEEL)
+    for sinkage in (0.004, 0.008):
+        st.solve_sinkage(sinkage)
+    res = st.solve_load(7.0)
+    assert res.vertical_force == pytest.approx(7.0, rel=1e-6)
+    ref = SteadyRolling(st.mesh, SOIL, wheel=WHEEL)
+    for sinkage in (0.004, 0.008, res.sinkage):
+        check = ref.solve_sinkage(sinkage)
+    assert check.vertical_force == pytest.approx(res.vertical_force, rel=1e-7)
+    assert check.towing_force == pytest.approx(res.towing_force, rel=1e-5)
+
+
+@pytest.mark.serial
+@pytest.mark.slow
+def test_towed_wheel_at_constant_load():
+    """The towed cylinder (mu = 0.3) on von Mises soil carrying 7 N/m: the sinkage's secant, each
+    sinkage solved for zero axle torque, finds 10.00 mm at xi = 0.99876 with Q_H = 5.28e-3 N/m
+    (measured: Q_V within 4e-8 of the load, torque 2.6e-4 N m/m).  Measured: 16 s."""
+    st = SteadyRolling(rolling_window_mesh(MPI.COMM_SELF, FRICTION_WINDOW), SOIL, wheel=WHEEL, friction=0.3)
+    for sinkage in (0.004, 0.008):
+        st.solve_sinkage(sinkage)
+    res = st.solve_load(7.0, free_rolling=True)
+    assert res.vertical_force == pytest.approx(7.0, rel=1e-6)
+    assert abs(res.axle_torque) <= 1e-6 * WHEEL.diameter / 2 * res.vertical_force
+    assert 0.0098 < res.sinkage < 0.0102 and res.spin < 1.0 and res.towing_force > 0
+    assert st.horizontal_balance().towing_force == pytest.approx(res.towing_force, abs=1e-7 * res.vertical_force)
