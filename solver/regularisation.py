@@ -186,6 +186,6 @@ def regularisation_summary(protocol: str, *, regularised: dict, relaxation_lengt
             "effect": {"quantity": "QV", "percent": [round(-100 * plateau_share, 3), round(100 * plateau_share, 3)],
                        "measured_range": True,
                        "basis": "largest out-of-balance force an accepted plateau left, over that step's Q_V"},
-            "tighten": "rerun with a lower model.plateau_tolerance (0 cuts the step instead) and compare: "
-                       "on non-associated soil the path can move by more than the residual"})
+            "tighten": "lower model.plateau_tolerance and compare (0 cuts the step instead): on "
+                       "non-associated soil the path can move by more than the residual"})
     return entries
