@@ -620,10 +620,10 @@ class FacetContact:
         D_nodal = _complex_step(patch.reshape(len(unique), P * d), lambda pc, m: _nodal_normals(
             pc.reshape((-1,) + patch.shape[1:]), tuple(_tiled(a, m) for a in surface)).reshape(len(pc), km * d))
         nodal = _nodal_normals(patch, surface)[inverse]
-        K_core = _complex_step(core, lambda cc, m: self._core(np.tile(points, m), cc, _tiled(nodal, m),
+        K_core = _complex_step(core, lambda cc, m: self._core(_tiled(points, m), cc, _tiled(nodal, m),
                                                               _tiled(xi0, m))[1])
         K_nodal = _complex_step(nodal.reshape(n, km * d), lambda nc, m: self._core(
-            np.tile(points, m), _tiled(core, m), nc.reshape((-1,) + nodal.shape[1:]), _tiled(xi0, m))[1])
+            _tiled(points, m), _tiled(core, m), nc.reshape((-1,) + nodal.shape[1:]), _tiled(xi0, m))[1])
         K = np.zeros((n, loaded, q.shape[1]))
         K[:, :, :loaded] = K_core[:, :, :loaded]
         K[:, :, d * (ks + P):] = K_core[:, :, loaded:]

@@ -59,14 +59,14 @@ def pytest_collection_modifyitems(config, items):
     """Under mpirun keep only the tests that take the communicator (:data:`COMMUNICATOR_FIXTURES`):
     the others (return maps, parsers, the analytic model, ...) cannot depend on the partition and
     ran in the serial pass.  Then share the long tests (measured in durations.json; a ``slow`` test
-    not in it counts as a minute) out among pytest-xdist's workers.  xdist 3.1 first hands each worker a block of
-    consecutive tests, a quarter of its share; the long tests are dealt to those blocks, longest
-    first to the least loaded, so no worker ends on a queue of them while another idles.  The
-    other tests keep their file order."""
+    not in it counts as a minute) out among pytest-xdist's workers.  xdist 3.1 first hands each
+    worker a block of consecutive tests, a quarter of its share; the long tests are dealt to those
+    blocks, longest first to the least loaded, so no worker ends on a queue of them while another
+    idles.  The other tests keep their file order."""
     if MPI.COMM_WORLD.size > 1:
-        kept = [item for item in items if _takes_communicator(item)]
-        config.hook.pytest_deselected(items=[item for item in items if not _takes_communicator(item)])
-        items[:] = kept
+        takes = [_takes_communicator(item) for item in items]
+        config.hook.pytest_deselected(items=[item for item, t in zip(items, takes) if not t])
+        items[:] = [item for item, t in zip(items, takes) if t]
     workers = int(getattr(config, "workerinput", {}).get("workercount", 1))
     known = json.loads(DURATIONS.read_text()) if DURATIONS.exists() else {}
 
