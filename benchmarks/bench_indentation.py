@@ -9,7 +9,7 @@
     mpirun -n 2 python benchmarks/bench_indentation.py --solve-cost --accuracy standard accurate \
         --linear-solver direct iterative                                      # cost of one solve
 
-``--volumetric-strain cell-average``: B-bar (docs, "Volumetric locking").  ``--checkpoint DIR``:
+``--volumetric-strain cell-average``: B-bar (see docs/theory.md, "Volumetric strain: B-bar or pointwise").  ``--checkpoint DIR``:
 the state is written whole at every reading stop (beside the previous one, then swapped in), and
 the same command started again continues from the last complete one (the accurate preset's
 hours-long runs over several sittings), on any number of ranks.

@@ -3,7 +3,8 @@
     mpirun -n 2 python benchmarks/bench_lab_rolling.py --series clay_large clay_small --out bench_lab.json
 
 Data: ``studies/data/lab_rolling.csv`` (steady Q_V of a towed aluminium wheel with a sandpaper
-surface, the bed translated at a fixed sinkage) and ``lab_tests.md``: Duluth clay, phi ~ 0,
+surface, the bed translated at a fixed sinkage) and the report's laboratory tests
+(docs/validation.md): Duluth clay, phi ~ 0,
 gamma = 18.5 kN/m^3, nu = 0.45; small wheel (d = 77.7 mm, b = 25.4 mm) E = 2 MPa,
 sigma_0 = 72 kPa; large wheel (d = 115.4 mm, b = 38.3 mm) E = 2.5 MPa, sigma_0 = 70 kPa.
 Von Mises with yield stress sigma_0 (c = sigma_0 / 2); the wheel's friction ``--mu``.
@@ -40,7 +41,7 @@ from rollsim.studies.bearing_capacity import Soil, Wheel, wheel_forces
 from rollsim.studies.design import LAB_SOILS
 
 DATA = pathlib.Path(__file__).parents[1] / "studies" / "data" / "lab_rolling.csv"
-#: lab_tests.md: E (Pa) of the clay for each wheel's tests; nu as the report's simulations
+#: E (Pa) of the clay for each wheel's laboratory tests (docs/validation.md); nu as the report's simulations
 LAB_E = {"clay_small": 2.0e6, "clay_large": 2.5e6}
 NU = 0.45
 BED_HALF_WIDTH, BED_DEPTH = 0.125, 0.100   # m

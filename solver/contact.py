@@ -29,7 +29,7 @@ of the discrete law; non-symmetric with friction, fine for LU).
 Penalty parameters: ``kappa = alpha E / h`` (``h`` the element size at the contact surface, ``E``
 the largest Young modulus of the soil), ``k_T = kappa``; the penetration error is ``p_N / kappa``
 = ``(p_N / E) (h / alpha)``.  The default ``alpha`` (:data:`DEFAULT_PENALTY`) comes from the
-measurement in ``benchmarks/bench_contact_hertz.py`` (docs, "Wheel contact, indentation").
+measurement in ``benchmarks/bench_contact_hertz.py`` (see docs/verification.md, "Contact").
 
 Forces are reported on the wheel (the negative of the force on the soil), for the modelled part
 of the wheel only (the symmetry factor is applied by the callers).
@@ -50,7 +50,7 @@ from rollsim import compat
 __all__ = ["Circle", "RigidWheelContact", "WheelForces", "PoseDerivatives", "ufl_signed_distance",
            "contact_cell_size", "DEFAULT_PENALTY"]
 
-#: Default penalty factor alpha in kappa = alpha E / h (measured: docs, "Wheel contact, indentation").
+#: Default penalty factor alpha in kappa = alpha E / h (measured: see docs/verification.md, "Contact").
 DEFAULT_PENALTY = 10.0
 
 

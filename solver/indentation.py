@@ -61,8 +61,8 @@ DEFAULT_STEP_CONTROL = StepControl(t_end=1.0, dt=0.1, dt_min=1e-4, dt_max=0.25, 
 #: Added to the solver defaults: MUMPS null-pivot detection, so that a tangent made singular by
 #: cells whose quadrature points all sit at the Drucker-Prager apex (zero tangent) still factors
 #: (without it such steps fail in the LU and are cut until the run fails); backtracking line
-#: search (measured on the plane-strain load-control case: 6 steps / 54 Newton iterations / 0 cuts
-#: against 23 / 270 / 10 with full Newton steps).
+#: search (fewer steps, iterations and cuts than full Newton steps; measured: see
+#: docs/theory.md, "Step control and failures").
 DEFAULT_PETSC_OPTIONS = {"mat_mumps_icntl_24": 1, "snes_linesearch_type": "bt"}
 
 # facet name -> displacement component held (normal to the face); "vertical" = gdim - 1

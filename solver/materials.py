@@ -46,8 +46,7 @@ Mohr-Coulomb (c, phi) -> Drucker-Prager (c_dp, phi_dp) matchings
   steeper than the associated one (phi = 40 deg, psi = 0: tan(phi_dp) = 1.113 against 1.044).
   ``"plane_strain"`` keeps the associated formula whatever ``psi`` is (the c = 0 wheel runs were
   tuned and measured with it): with ``psi = 0`` it is, in plane strain, a Mohr-Coulomb soil of
-  28.7 / 33.0 / 37.1 / 40.9 deg for phi = 30 / 35 / 40 / 45 deg (docs, "Plane-strain match and
-  non-associated flow").
+  28.7 / 33.0 / 37.1 / 40.9 deg for phi = 30 / 35 / 40 / 45 deg (see docs/theory.md, "Soil").
 """
 from __future__ import annotations
 
@@ -62,15 +61,15 @@ __all__ = ["VonMises", "DruckerPrager", "mc_to_dp", "dp_to_mc", "von_mises_from_
 # The regularising ("numerical") cohesion put in place of c = 0 by regularised_cohesion (and by
 # scene_model.layer_material for scene layers), options.DEFAULT_REGULARISING_COHESION (1 kPa), is
 # NOT negligible for a wheel: near the surface the frictional strength gamma z tan(phi) is itself
-# of order 1 kPa.  Measured on the 3D wheel (phi = 40 deg, psi = 0, fast mesh; docs/benchmarks.md):
-# against c = 0 exactly, 1 kPa raises Q_V at s/d = 0.02 / 0.05 / 0.1 by 52 / 39 / 60 % (pointwise)
-# and 54 / 61 / 97 % (B-bar).  c = 0 exactly runs too ([model] regularising_cohesion = 0), 2-3x
-# slower, and stalled pointwise at phi = 45 deg.
+# of order 1 kPa: on the 3D wheel it raises Q_V markedly against c = 0 exactly.  c = 0 exactly
+# runs too ([model] regularising_cohesion = 0), slower, and stalls pointwise at steep angles
+# (measured: see docs/benchmarks.md, "c = 0 soil").
 
 #: Above this Mohr-Coulomb angle (asin 0.6 = 36.87 deg) the compression-matched Drucker-Prager cone
 #: has tan(phi_dp) >= 1.5: it has no extension-matched Mohr-Coulomb angle, i.e. it is stronger in
-#: triaxial extension than any Mohr-Coulomb material.  With psi = 0 such cones stalled the 3D wheel
-#: indentation at s/d < 0.002 (docs, "Purely frictional soil"); prefer the plane-strain match there.
+#: triaxial extension than any Mohr-Coulomb material.  With psi = 0 such cones stall the 3D wheel
+#: indentation near its start (see docs/benchmarks.md, "c = 0 soil"); prefer the plane-strain match
+#: there.
 PHI_COMPRESSION_MATCH_LIMIT = math.asin(0.6)
 
 MATCHINGS = ("compression", "extension", "plane_strain", "plane_strain_flow")

@@ -35,19 +35,17 @@ DEFAULT_VOLUMETRIC_STRAIN = "pointwise"
 #: Scenes default per preset (:func:`default_cell_type`).
 CELL_TYPES = ("tetrahedra", "hexahedra")
 #: elements across the wheel's width in a hexahedral rolling block (``[model]
-#: elements_across_wheel``): 8, four across the modelled half.  Measured on constant-load rolling
-#: (docs: speed and accuracy, "Constant-load rolling: mesh convergence"): the sinkage is set by the
-#: elements across the wheel more than by those along it; on the c-phi soil of case 5 (6 elements
-#: per d) it moves by 1 % or less from 7 to 14 elements across the width, by 9-18 % from 2 to 7.
+#: elements_across_wheel``): 8, four across the modelled half.  On constant-load rolling the
+#: sinkage is set by the elements across the wheel more than by those along it, and on the c-phi
+#: soil of case 5 it settles across from this count on (measured: see
+#: docs/speed-accuracy-details.md, "Constant-load rolling: mesh convergence").
 DEFAULT_ELEMENTS_ACROSS_WHEEL = 8.0
 #: a rigid wheel's hexahedral rolling block per mesh preset: (elements per d, elements across the
 #: wheel's width, elements per d along the path in the refined strip).  ``standard`` and
 #: ``accurate`` roll on it by default (:func:`default_cell_type`); ``accurate`` refines every
-#: direction of ``standard`` once more.  Along the path (docs: speed and accuracy, "Along the
-#: path"): on a frictional clay held at 0.02 d the force drops by 4.7 % from 6 to 12 elements per
-#: d and by 3.1 % from 12 to 24, the sinkage at the load grows by 13.8 % and 4.3 % (on the c-phi
-#: soil of case 5 by 7 % from 6 to 12 in the transient after the stiff zone), at 3.4x the cost
-#: per level.
+#: direction of ``standard`` once more.  With friction the held force and the sinkage at the load
+#: still move from 6 to 12 to 24 elements per d along the path, each level at a few times the
+#: cost of the one before (measured: see docs/speed-accuracy-details.md, "Along the path").
 ROLLING_HEXAHEDRA = {"fast": (6.0, 8.0, 6.0), "standard": (6.0, 8.0, 12.0), "accurate": (8.0, 16.0, 24.0)}
 #: Drucker-Prager to Mohr-Coulomb matching, scene spelling -> ``materials.mc_to_dp`` spelling
 MATCHING = {"compression": "compression", "extension": "extension", "plane-strain": "plane_strain",
@@ -74,7 +72,7 @@ DEFAULT_TRAVEL_RELAXATION_FALLBACK = 5e-4
 #: soil the path does not recover from it; the tolerance lies an order below the plateaus whose
 #: acceptance, decided differently by the rounding of two BLAS kernels, set two runs of one scene
 #: on different paths.  The residual left is reported
-#: (``PlasticityProblem.plateaus``); docs: limitations, "Non-associated flow: Newton stalls".
+#: (``PlasticityProblem.plateaus``); see docs/limitations.md, "Non-associated flow: Newton stalls".
 PLATEAU_RTOL = 1e-4
 
 
@@ -84,22 +82,19 @@ def default_volumetric_strain(protocol: str, accuracy: str = DEFAULT_ACCURACY,
     (or ``refinement``, elements per d, when the scene sets it: up to the fast preset's 8 it counts
     as ``fast``).
 
-    Indentation: B-bar ("cell-average"), which removes the locking of the P2 tetrahedra (the
-    standard and accurate presets agree within 3 %).  Rolling: B-bar on the standard and accurate
-    presets, "pointwise" on ``fast``.  Measured on constant-load rolling (docs: speed and
-    accuracy, "Constant-load rolling: mesh convergence"): B-bar's levels converge on the case-5
-    soil (19.1 mm at 12 elements per d, -4.5 % from 10) and are not settled on clay (8 to 10 on a
-    3.6 d block: +2.4 % in the mean from 1 d, +36 % in the detected steady value), while the
-    pointwise sinkage levels off 12-22 % below them on the c-phi soil and reads 32 % below B-bar
-    on clay at 10 per d.  On the fast mesh (8 per d) neither is within 10 % on
-    both soils (pointwise -12 to -38 %, B-bar -14 to +23 %), and pointwise costs 2-4.5x less and needs no regularisation with
-    friction: it stays the screening default there.
+    Indentation: B-bar ("cell-average"), which removes the locking of the P2 tetrahedra (see
+    docs/verification.md, "Mesh convergence of indentation").  Rolling: B-bar on the standard and
+    accurate presets, "pointwise" on ``fast``.  On constant-load rolling B-bar's levels converge on
+    the case-5 soil, while the pointwise sinkage levels off below them (it locks under the
+    isochoric plastic flow); on the fast mesh neither strain reaches screening accuracy on both
+    soils, and pointwise costs less and needs no regularisation with friction: it stays the
+    screening default there (measured: see
+    docs/speed-accuracy-details.md, "Rolling: the findings behind the presets").
 
     A pneumatic ``wheel``: B-bar always.  Its soil is of hexahedra, where B-bar is the exact
-    projection onto linear functions per cell (Q2-P1, within 3.4 % of the tetrahedra's indentation
-    load), while the pointwise strain locks: the towed tire on clay (6 elements per d) sank
-    22.1 mm with B-bar against 17.4 mm pointwise, at 1.27x the cost (docs: verification, "Towed
-    tire against the towed rigid wheel")."""
+    projection onto linear functions per cell (Q2-P1), while the pointwise strain locks and the
+    towed tire on clay sinks markedly less with it (measured: see
+    docs/verification.md, "Pneumatic tire on soil")."""
     if wheel == "pneumatic":
         return "cell-average"
     coarse = accuracy == "fast" if refinement is None else refinement <= ACCURACY_REFINEMENT["fast"]
@@ -113,13 +108,12 @@ def default_cell_type(accuracy: str = DEFAULT_ACCURACY, refinement: float | None
     across the wheel and along its path (:data:`ROLLING_HEXAHEDRA`) on the ``standard`` and
     ``accurate`` presets, tetrahedra on ``fast`` and wherever the scene sets ``refinement``.
 
-    Measured on constant-load rolling (docs: speed and accuracy, "Constant-load rolling: mesh
-    convergence"): the sinkage is set by the elements across the wheel and, with friction on clay,
-    along the path more than by those in depth.  On the case-5 soil B-bar on hexahedra with 8
-    elements across at 6 per d reads within 1 % of twice as many across and 0.2 % of twice as many
-    along the path, where B-bar on tetrahedra needs 12 elements per d (-4.5 % from 10) and the
-    tetrahedral ``standard`` (20 per d) was estimated at 11-47 h per case.  ``fast`` keeps the
-    tetrahedra, the cheapest run (pointwise, for screening)."""
+    On constant-load rolling the sinkage is set by the elements across the wheel and, with
+    friction, along the path more than by those in depth.  On the case-5 soil B-bar on these
+    hexahedra settles across the wheel at a fraction of the cost of the tetrahedral levels that
+    come as close, and the tetrahedral ``standard`` (20 per d) is far too dear for rolling
+    (measured: see docs/speed-accuracy-details.md, "Constant-load rolling: mesh convergence").
+    ``fast`` keeps the tetrahedra, the cheapest run (pointwise, for screening)."""
     if refinement is None and accuracy != "fast":
         return "hexahedra"
     return "tetrahedra"

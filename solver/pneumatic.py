@@ -37,7 +37,7 @@ from .stepping import SolverDivergedError, StepControl, StepRecord, settle_under
 __all__ = ["PneumaticIndentation", "TIRE_PENALTY"]
 
 #: default penalty factor of the tire-soil contact: in 3D alpha = 3 reads the pressure better than
-#: 10 (docs/verification.md, two deformable bodies) and lets the soil's penetration stay small
+#: 10 (see docs/verification.md, "Two deformable bodies") and lets the soil's penetration stay small
 TIRE_PENALTY = 3.0
 
 #: the largest hub travel of one step of :meth:`PneumaticIndentation.press_to_load`, in aimed sinkage steps
@@ -217,8 +217,8 @@ class PneumaticIndentation(StepCounts):
     def inflate(self, pressure: float, control: StepControl | None = None) -> list[StepRecord]:
         """Ramp the inflation pressure from its current value to ``pressure`` (Pa), the hub held.
         Full Newton steps (no line search): clear of the soil only the hyperelastic carcass is
-        loaded, and a backtracking line search damps it to a crawl (the towed half tire at
-        450 kPa: 95 Newton iterations with backtracking, 21 without)."""
+        loaded, and a backtracking line search damps it to a crawl (measured: see
+        docs/theory.md, "Pneumatic tire: carcass and inflation")."""
         start = float(self.pressure.value)
         control = control or StepControl(dt=0.25, dt_max=0.5)
         with self.problem.line_search("basic"):

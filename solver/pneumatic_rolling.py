@@ -12,7 +12,7 @@ reaction moment about the axle vanishes::
 included; the air's pressure on the circular rim has no moment about the axle).  ``G`` is solved
 by a quasi-Newton loop around the soil-and-tire Newton solve: its 2 x 2 Jacobian is taken by
 differences at the first rolled step and updated (Broyden) at every move after, so a step
-usually takes 2 solves, each started from the last one's displacement with the plastic
+takes few solves (see docs/verification.md, "Pneumatic tire on soil"), each started from the last one's displacement with the plastic
 history of the last converged step.  A step whose solve fails or whose balance is not found is
 retried with half the travel.
 """

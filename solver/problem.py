@@ -73,23 +73,23 @@ DEFAULT_PETSC_OPTIONS = {
 #: repeated itself, within the relative ``tolerance`` of the value one or two iterations before (a flat
 #: plateau or a two-cycle), in ``iterations`` consecutive iterations: ``(iterations, tolerance)``;
 #: ``(0, 0)`` switches it off.  Non-associated Drucker-Prager sand (layered cases 13-15) stalls at
-#: flat plateaus, frictional contact cycles between two active sets; both used to iterate to
-#: ``snes_max_it``.  Chosen on recorded residual histories: none of 100 converged solves of the sand
-#: nor of 82 of the erratic c = 0 footing (basic line search) meets it.
+#: flat plateaus, frictional contact cycles between two active sets; without this test both
+#: iterate to ``snes_max_it``.  Chosen on recorded residual histories of converged solves, none of
+#: which meets it (see docs/theory.md, "Step control and failures").
 STAGNATION = (3, 1e-3)
 
 
 #: ``linear_solver="auto"`` (see :data:`rollsim.solver.options.LINEAR_SOLVERS`): direct (MUMPS LU,
 #: :data:`DEFAULT_PETSC_OPTIONS`) up to this many global dofs, :data:`ITERATIVE_SOLVER_OPTIONS`
-#: above, where the LU factorisation dominates the run time (accurate preset: 53-74 s per solve)
+#: above, where the LU factorisation dominates the run time (see docs/benchmarks.md, "Presets")
 AUTO_ITERATIVE_DOFS = 100_000
 
 #: GMRES (the tangent is unsymmetric with friction or non-associated flow) preconditioned by
 #: smoothed-aggregation AMG (GAMG) with the rigid-body modes as near-null space (attached by
-#: :class:`PlasticityProblem`).  Inexact Newton: a relative tolerance of 1e-6 took the same Newton
-#: iterations (+-1) and gave the same forces as 1e-10 in about 80 % of the time (standard preset, B-bar, report case 2,
-#: ``bench_indentation.py --linear-solver iterative --petsc-option ksp_rtol=...``); the Newton
-#: tolerance (``snes_rtol``), not this one, sets the accuracy.
+#: :class:`PlasticityProblem`).  Inexact Newton: a relative tolerance of 1e-6 gives the forces of
+#: 1e-10 in less time (``bench_indentation.py --linear-solver iterative --petsc-option
+#: ksp_rtol=...``; measured: see docs/benchmarks.md, "Presets"); the Newton tolerance
+#: (``snes_rtol``), not this one, sets the accuracy.
 ITERATIVE_SOLVER_OPTIONS = {
     "ksp_type": "gmres",
     "ksp_gmres_restart": 150,
@@ -259,14 +259,15 @@ class PlasticityProblem:
     volumetric_strain : ``"cell-average"`` (B-bar): the volumetric part of every strain
         (trial, test and increment) is replaced by its projection per cell, so each cell carries
         a few incompressibility constraints instead of one per quadrature point - P2 tetrahedra
-        lock under isochoric plastic flow otherwise (docs, "Volumetric locking").  On triangles
+        lock under isochoric plastic flow otherwise (see
+        docs/theory.md, "Volumetric strain: B-bar or pointwise").  On triangles
         and tetrahedra the cell mean, by a Taylor value about the midpoint: exact for P2 on
         affine cells (div u is linear there), first-order on curved cells and in
         updated-Lagrangian steps.  On quadrilaterals and hexahedra the exact projection onto the
         linear functions of the cell (Q2-P1, the optimal pairing), or onto the constants with
         ``volumetric_projection=0`` (Q2-P0, the cell mean: converges from below and more slowly)
-        - solver/cell_average.py.  ``"pointwise"`` (default, :data:`DEFAULT_VOLUMETRIC_STRAIN`
-        until the documented figures are re-measured with B-bar): the plain strain.
+        - solver/cell_average.py.  ``"pointwise"`` (the default of the solver classes,
+        :data:`DEFAULT_VOLUMETRIC_STRAIN`; scenes choose per protocol and preset): the plain strain.
     """
 
     def __init__(self, mesh, material, bcs: Sequence = (), *, degree: int = 2,
@@ -721,7 +722,8 @@ class PlasticityProblem:
     def _dirichlet_gap(self, x) -> bool:
         """Whether ``x`` misses a Dirichlet value anywhere (collective).  Where it does not, the
         lifting of the residual adds exactly zero and is skipped: it runs the tangent's element
-        kernels on every constrained cell, about a third of the cost of a matrix assembly."""
+        kernels on every constrained cell (its cost: see
+        docs/speed-accuracy-details.md, "Where the time goes: levers")."""
         if not self.bcs:
             return False
         if self._gap is None:

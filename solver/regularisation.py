@@ -11,13 +11,13 @@ with a default the solver chooses:
 * ``travel_relaxation_fallback``: the same for a roll, which starts over relaxed to its end
   (default 0.5 mm);
 * ``plateau_tolerance``: Newton plateaus below this share of the internal-force norm accepted as
-  converged (default 1e-3).
+  converged (default 1e-4).
 
 :func:`regularisation_summary` lists the ones a run applied, for ``summary.json``
 (``model.regularisation``), each with an estimate of its effect from the measurements in the
-docs (limitations, "Purely frictional soil" and "Non-associated flow"; benchmarks, "c = 0
-soil" and "Relaxation length in rolling") and the key that tightens it.  The estimates are
-ranges measured on particular soils, not bounds.
+docs and the key that tightens it.  The estimates are ranges measured on particular soils, not
+bounds.  The measurements: docs/benchmarks.md, "c = 0 soil" and "Relaxation length in rolling";
+docs/limitations.md, "Purely frictional soil (c = 0)" and "Non-associated flow: Newton stalls".
 """
 from __future__ import annotations
 
@@ -26,32 +26,35 @@ import math
 __all__ = ["regularisation_summary", "cohesion_bias", "relaxation_bias", "COHESION_EXPONENT"]
 
 #: c_reg = 1 kPa against c = 0 exactly, phi = 40 deg (35 deg for pointwise gives the same range),
-#: Q_V at s/d = 0.02 / 0.05 / 0.1 on the fast wheel: B-bar +54 / +61 / +97 %, pointwise +52 / +39 / +60 %
+#: Q_V at s/d = 0.02 / 0.05 / 0.1 on the fast wheel, both strains: the range of the rise (%)
+#: (measured: see docs/benchmarks.md, "c = 0 soil")
 COHESION_BIAS_1KPA = (39.0, 97.0)
-#: the pointwise bias at c_reg = 0.5 / 1 / 2 kPa (means 31 / 50 / 83 %) grows as c_reg**0.71
+#: the pointwise bias grows as c_reg**COHESION_EXPONENT over c_reg = 0.5-2 kPa (measured: see
+#: docs/benchmarks.md, "c = 0 soil")
 COHESION_EXPONENT = 0.71
 #: the c_reg range the cohesion bias was measured over (Pa)
 COHESION_MEASURED = (500.0, 2000.0)
-#: rolling: the bias of a relaxation length is first order, about 3 % per mm (clay, Q_V of a held
-#: sinkage: +1.2 / +3.0 / +4.9 % at 0.5 / 1 / 2 mm; case-5 soil at constant load: sinkage -1.5 / -3.1 %
-#: at 0.5 / 1 mm); on dense sand (case 13) smaller (+0.9 % per halving near 1 mm)
+#: rolling: the bias of a relaxation length is first order, in % per mm (clay, Q_V of a held
+#: sinkage; the case-5 soil's constant-load sinkage moves alike, dense sand less; measured: see
+#: docs/benchmarks.md, "Relaxation length in rolling")
 RELAXATION_ROLLING_PER_MM = 3.0
 #: rolling on a c = 0 sand (phi = 40 deg, psi = 0, mu = 0.8, fast, pointwise, continuous protocol):
 #: length (mm) -> (low, high) bias of Q_V at s/d = 0.01 / 0.02 / 0.03 (%) against the length-0
 #: extrapolations (Richardson and Aitken) of 0.25 / 0.5 / 1 mm: not first order, and large
 RELAXATION_ROLLING_C0 = ((0.25, (26.0, 98.0)), (0.5, (50.0, 153.0)), (1.0, (88.0, 238.0)))
-#: that sand's extrapolated Q_V grows as s**0.43-0.52 from s/d = 0.01 to 0.03: a constant load then
-#: finds the sinkage (1 + bias)**(-1 / RELAXATION_ROLLING_C0_EXPONENT) times the unrelaxed one
+#: that sand's extrapolated Q_V grows about as s**RELAXATION_ROLLING_C0_EXPONENT from s/d = 0.01 to
+#: 0.03 (see docs/limitations.md, "Purely frictional soil (c = 0)"): a constant load then finds the
+#: sinkage (1 + bias)**(-1 / RELAXATION_ROLLING_C0_EXPONENT) times the unrelaxed one
 RELAXATION_ROLLING_C0_EXPONENT = 0.5
 #: indentation of a c = 0 sand (phi = 40 deg, pointwise): length (mm) -> bias of Q_V at s/d = 0.1 (%)
-#: against the rate-independent 43.1 kN
+#: against the rate-independent value (measured: see docs/benchmarks.md, "c = 0 soil")
 RELAXATION_INDENTATION = ((1 / 512, 15.0), (1 / 256, 25.0), (1 / 128, 29.0), (1 / 64, 43.0), (1 / 32, 63.0),
                           (1 / 16, 96.0), (1 / 8, 145.0), (1 / 4, 218.0), (1.0, 520.0))
 
 #: fallback relaxation (default 0.01 mm over 0.005 d of sinkage after a failure), measured on the
-#: plane-strain extremes matrix (benchmarks/bench_extremes.py, fast preset): when its length is
-#: halved, Q_V at s/d = 0.1 of the cells it relaxed moves within 1.6 % on 24, 3.1 % on 26 and 15 %
-#: on 29 of 30; one stiff, nearly incompressible steep cone (nu = 0.49, E = 5000 gamma d) moved 62 %
+#: plane-strain extremes matrix (benchmarks/bench_extremes.py, fast preset), its length halved:
+#: the change of Q_V at s/d = 0.1 on the cells it relaxed, bar one stiff, nearly incompressible
+#: steep cone (measured: see docs/benchmarks.md, "Extremes matrix")
 FALLBACK_BIAS = (-15.0, 15.0)
 FALLBACK_BASIS = ("Q_V at s/d = 0.1 with the length halved: within 1.6 % on 24 and 15 % on 29 of 30 plane-strain "
                   "extremes cells it relaxed; 62 % on one stiff nearly incompressible steep cone")
@@ -60,9 +63,8 @@ FALLBACK_MEASURED = (5e-6, 2e-5)
 
 
 #: travel fallback (default 0.5 mm; the failed roll starts over relaxed to its end): its effect is
-#: that of relaxing the whole roll by the same length (:func:`relaxation_bias`, 3 % per mm);
-#: measured on the dense sand of layered case 13 (tiny test block, 0.1 d rolled, failed at 0.12 m):
-#: Q_V 140.27 / 140.69 / 141.56 kN at 0.25 / 0.5 / 1 mm
+#: that of relaxing the whole roll by the same length (:func:`relaxation_bias`); measured on the
+#: dense sand of layered case 13 (see docs/limitations.md, "Non-associated flow: Newton stalls")
 TRAVEL_FALLBACK_BASIS = ("the bias of relaxing the whole roll by this length (first order, about 3 % per mm); "
                          "dense sand, Q_V with 0.5 mm halved: -0.30 %")
 #: the travel fallback lengths measured (m)

@@ -59,9 +59,8 @@ log = get_logger("solver")
 DEFAULT_ROLL_CONTROL = dict(dt=0.25, dt_min=1e-3, dt_max=0.5, easy_iterations=8, max_cuts=8, grow=1.5)
 #: constant load: travel of the wheel centre on the test soil (past the stiff start zone), in d,
 #: before steady state is looked for.  Leaving the stiff zone the wheel overshoots, and one
-#: window on the overshoot's plateau can look steady; on the fast preset the plateau ended
-#: 0.3-0.6 d past the zone's end and the sinkage had settled by 0.7-0.95 d (docs, "Do the two
-#: protocols agree?" and the Mn/DOT run)
+#: window on the overshoot's plateau can look steady; the value is set from fast-preset runs (see
+#: docs/limitations.md, "Other limits of the finite-element model")
 STEADY_MIN_TRAVEL = 0.75
 
 
@@ -188,22 +187,17 @@ class _PoseBorder:
     (plain Newton iterations on the soil), an iteration turns the wheel by at most a quarter of
     the step's rolling rotation ``dx / R`` and moves the axle by at most 5 % of a contact
     element, and the problem's backtracking line search weighs ``M / R`` and ``Q_V`` with the
-    soil's residual.  ``HOLD_RTOL`` was chosen on the test block of ``tests/test_rolling.py``
-    (0.1 d of travel at mu = 0.8): linear solves 66 (never held), 41 (0.1), 44 (0.03), 55 (held
-    to convergence); the nested torque iteration this replaces needed 102.  For the axle height
-    (frictionless constant load, the short block of the same tests, 0.45 d of travel): Newton
-    iterations / step cuts 576 / 4 with this scheme, 610 / 6 without backtracking once the soil has
-    converged, 656 / 9 when the height is also held to convergence (the soil alone then often
-    stalls at a poorly predicted height).
+    soil's residual.  ``HOLD_RTOL`` is chosen on the test blocks of ``tests/test_rolling.py``,
+    against holding the pose never or to convergence and against a nested torque iteration
+    (measured: see docs/benchmarks.md, "Rolling cost").
 
     The relative hold releases the height too early after a translation (whose initial residual
     is large): the soil's pending correction then dominates the coupled step, which moves the
     axle the wrong way and is cut short by the line search.  Without friction (height the only
     unknown) the pose is also held until the force residual is below ``HOLD_LOAD_FRACTION`` of
-    the load: Newton iterations / cuts over 0.45 d on that block 518 / 4 (no such bound), 375 / 3
-    (0.01), 339 / 3 (0.1), 345 / 3 (0.3), 387 / 3 (0.5), the same sinkage within 0.1 %.  With
-    friction (the rotation also unknown) the bound does not pay (181 / 1 without it, 182 / 1 at
-    0.3, 266 / 3 at 0.1) and is off."""
+    the load, which saves Newton iterations and cuts at the same sinkage.  With friction (the
+    rotation also unknown) the bound does not pay and is off (measured: see
+    docs/benchmarks.md, "Rolling cost")."""
 
     HOLD_RTOL = 0.1
     HOLD_LOAD_FRACTION = 0.1
@@ -280,9 +274,9 @@ class WheelRolling:
 
     #: the pose solve's attempts before a step is cut, by the ``hold_rtol`` of each (see
     #: :meth:`_solve_pose`).  A second attempt with the pose held until the soil has converged
-    #: (``(0.1, 0.0)``) rescued 1 of 16 failed solves on case 5 and none of 14 on clay (B-bar, 6
-    #: elements per d, ``benchmarks/bench_pose_retry.py``) and took 22-30 % of the Newton
-    #: iterations: cutting at once is cheaper.
+    #: (``(0.1, 0.0)``) rarely rescues a failed solve and costs Newton iterations
+    #: (``benchmarks/bench_pose_retry.py``; measured: see docs/benchmarks.md, "Rolling cost"):
+    #: cutting at once is cheaper.
     POSE_HOLDS: tuple[float, ...] = (_PoseBorder.HOLD_RTOL,)
 
     def __init__(self, tagged, wheel, materials, *, gamma: float = 0.0, friction: float = 0.0,
@@ -470,8 +464,8 @@ class WheelRolling:
         ``dx`` after easy steps, on hexahedra it stays; cut on divergence and grown back).  After a failure the roll
         starts over relaxed (see ``travel_relaxation_fallback``): the steps it rolled are dropped,
         and ``on_start_over(n)`` is told how many.  ``predictor``: Newton's start in each step with the
-        default ``control`` (:class:`StepControl`; ``"extrapolate"`` took 25-30 % more Newton
-        iterations than ``"none"`` on held rolling, docs/benchmarks.md, "Rolling cost").  Returns all
+        default ``control`` (:class:`StepControl`; ``"extrapolate"`` costs more Newton iterations
+        than ``"none"`` on held rolling: see docs/benchmarks.md, "Rolling cost").  Returns all
         steps; ``SolverDivergedError`` (state at the last converged step) on failure."""
         if not travel > 0:
             raise ValueError(f"travel must be > 0, got {travel}")
@@ -528,9 +522,9 @@ class WheelRolling:
         self._rolling = True
         try:
             # started over and relaxed to the end of the roll: on dense non-associated sand the
-            # rate-independent travel up to the failure localised and left a heave where the rut
-            # belongs, and relaxed stretches between rate-independent ones heaved more at 3-4x the
-            # Newton iterations (docs/limitations.md, "Travel relaxation fallback")
+            # rate-independent travel up to the failure localises and leaves a heave where the rut
+            # belongs, and relaxed stretches between rate-independent ones heave more at several
+            # times the Newton iterations (see docs/limitations.md, "Non-associated flow: Newton stalls")
             fallback = RelaxationFallback.unless_relaxed(self.relaxation_length, self.travel_relaxation_fallback,
                                                          math.inf, self.relaxed_travel)
             advance_with_fallback(advance, lambda: self.position - x0, [travel], control, fallback,

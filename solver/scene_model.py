@@ -36,7 +36,8 @@ def layer_material(layer, index: int = 0, *, c_reg: float = DEFAULT_REGULARISING
 
     Purely frictional layers (``c = 0`` or ``c_dp = 0`` with a friction angle > 0) get the
     regularising cohesion ``c_reg`` (Pa: the scene's ``[model] regularising_cohesion``) in its
-    place, with a warning in the log stating its measured effect on Q_V (docs/limitations.md);
+    place, with a warning in the log stating its measured effect on Q_V (see
+    docs/limitations.md, "Purely frictional soil (c = 0)");
     ``c_reg = 0`` keeps c = 0 (not for mohr-coulomb, whose rounded tip needs c > 0: ``ValueError``
     naming the layer).
     """
@@ -111,8 +112,8 @@ def regularised_layers(scene) -> dict:
     return layer_materials(scene).regularised
 
 
-#: penalty alpha for scenes with a purely frictional layer (c = 0, regularised): about 3x faster
-#: than the default alpha = 10 there, measured (docs/benchmarks.md, "Purely frictional soil")
+#: penalty alpha for scenes with a purely frictional layer (c = 0, regularised): much faster than
+#: the default alpha = 10 there (measured: see docs/benchmarks.md, "c = 0 soil")
 FRICTIONAL_PENALTY = 1.0
 
 

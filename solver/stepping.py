@@ -1,6 +1,6 @@
 """Adaptive load stepping: step cutting on divergence, growth after easy steps, clean failure.
 
-Robustness features (measurements in the docs, "Purely frictional soil"):
+Robustness features (measurements: see docs/verification.md, "Purely frictional soil"):
 
 * **extrapolated predictor** (``StepControl.predictor = "extrapolate"``; ``StripFooting`` uses
   it by default, ``StepControl`` keeps ``"none"`` for backward compatibility): Newton starts
@@ -9,10 +9,10 @@ Robustness features (measurements in the docs, "Purely frictional soil"):
   first iterate is already close to the solution; starting from ``u_n`` instead, the first
   Newton update (made with the tangent of the converged state) overshoots and, for purely
   frictional soil (c = 0), throws hundreds of surface points into the stress-free apex whose
-  tangent is zero, i.e. locally singular; Newton then wanders.  This predictor removed most step
+  tangent is zero, i.e. locally singular; Newton then wanders.  This predictor removes most step
   cuts of the c = 0 strip footing.  It is *not* universally better: in the 3D wheel indentation
-  with penalty contact (c = 0, phi = 40 deg, psi = 0) it failed earlier than no predictor, and
-  on rolling at a held sinkage it took 25-30 % more Newton iterations (docs, "Rolling cost").
+  with penalty contact (c = 0, phi = 40 deg, psi = 0) it fails earlier than no predictor, and
+  on rolling at a held sinkage it costs more Newton iterations (see docs/benchmarks.md, "Rolling cost").
   ``"auto"`` tries the extrapolated start first and, if Newton fails, retries the same step from
   the converged state before cutting.
 * **failure memory**: after a cut, the step does not grow beyond ``fail_safety`` times the step

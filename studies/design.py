@@ -34,7 +34,7 @@ class DesignWheel:
     load: float  # N, the wheel's service load for the comparison table
 
 
-# Mn/DOT test roller tire (report Ch. 4) and a commercial-truck wheel (typical_values.md)
+# Mn/DOT test roller tire (report Ch. 4) and a commercial-truck wheel of typical size
 WHEELS = (
     DesignWheel("Mn/DOT test roller (d 1.524 m, b 0.457 m)", Wheel(1.524, 0.4572), 133.5e3),
     DesignWheel("truck wheel (d 1.1 m, b 0.3 m)", Wheel(1.1, 0.3), 53e3),

@@ -1,4 +1,4 @@
-"""Force-sinkage curve summaries (numerical-model.md, "Force-sinkage fit").
+"""Force-sinkage curve summaries (see docs/studies-hpc.md, "Studies and clusters").
 
     Q_V / (gamma d^3) = k1 sqrt(x) + k2 x + k3 x^2 + k4 x^3,   x = s/d
 

@@ -62,7 +62,8 @@ RUNNERS = ("analytic", "fe")
 FE_COST_HINT = {("indentation", "fast"): "about 1 minute", ("indentation", "standard"): "10-30 minutes",
                 ("indentation", "accurate"): "hours", ("rolling", "fast"): "10-20 minutes",
                 ("rolling", "standard"): "hours", ("rolling", "accurate"): "days"}
-#: the cost of a run grows about as (elements per d)**COST_EXPONENT (rolling levels 8-12: 3.7-5)
+#: the cost of a run grows about as (elements per d)**COST_EXPONENT (measured on the rolling levels:
+#: see docs/speed-accuracy-details.md, "Constant-load rolling: mesh convergence")
 COST_EXPONENT = 4.0
 
 

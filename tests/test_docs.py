@@ -1,5 +1,6 @@
-"""The documentation: it builds without a warning, its links inside the repository resolve, and
-the scene-format page lists exactly the keys the validator reads."""
+"""The documentation: it builds without a warning, its links inside the repository resolve (pages
+and headings; the code's ``docs/page.md, "Heading"`` pointers too), every page is in the index,
+and the scene-format page lists exactly the keys the validator reads."""
 from __future__ import annotations
 
 import ast
@@ -13,6 +14,8 @@ import pytest
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
 PAGES = [ROOT / "README.md", *sorted(DOCS.glob("*.md")), *sorted((ROOT / "docker").glob("*.md"))]
+#: the code whose comments and docstrings point into the docs (``docs/page.md, "Heading"``)
+CODE_DIRS = ("solver", "geometry", "studies", "rollsim", "benchmarks", "tools")
 
 
 @pytest.mark.serial
@@ -35,11 +38,12 @@ def _slug(title: str) -> str:
 
 
 def _anchors(path: pathlib.Path) -> set[str]:
+    """The anchors of a page's headings, down to the level MyST gives anchors (docs/conf.py)."""
     anchors, fence = set(), False
     for line in path.read_text().splitlines():
         if line.lstrip().startswith("```"):
             fence = not fence
-        elif not fence and (m := re.match(r"^#+ (.*)", line)):
+        elif not fence and (m := re.match(r"^#{1,4} (.*)", line)):
             anchors.add(_slug(m.group(1)))
     return anchors
 
@@ -78,6 +82,48 @@ def test_link_check_catches_a_dead_link(tmp_path):
         assert _broken([page]) == ["page.md: missing.md (no such file)", "page.md: page.md#nothing (no such heading)"]
     finally:
         ROOT = saved
+
+
+def test_every_page_is_in_the_index():
+    """A page outside the toctree of docs/index.md is not reachable from the built docs."""
+    toc = re.search(r"```\{toctree\}(.*?)```", (DOCS / "index.md").read_text(), flags=re.S).group(1)
+    listed = {line.strip() for line in toc.splitlines() if line.strip() and not line.strip().startswith(":")}
+    pages = {page.stem for page in DOCS.glob("*.md")} - {"index"}
+    assert pages - listed == set(), f"pages missing from the toctree of docs/index.md: {pages - listed}"
+    assert listed - pages == set(), f"toctree entries without a page: {listed - pages}"
+
+
+_POINTER = re.compile(r'docs/([\w.-]+\.md)(?:,\s*"([^"\n]+)")?')
+
+
+def _dead_pointers(files, docs: pathlib.Path = DOCS) -> list[str]:
+    """``docs/page.md`` mentions in ``files`` whose page does not exist, and ``docs/page.md,
+    "Heading"`` ones whose page has no such heading (a heading that begins with it counts)."""
+    dead = []
+    for path in files:
+        for m in _POINTER.finditer(path.read_text()):
+            page, heading = docs / m.group(1), m.group(2)
+            if not page.is_file():
+                dead.append(f"{path.name}: docs/{m.group(1)} (no such page)")
+            elif heading and not any(a == _slug(heading) or a.startswith(_slug(heading) + "-")
+                                     for a in _anchors(page)):
+                dead.append(f'{path.name}: docs/{m.group(1)}, "{heading}" (no such heading)')
+    return dead
+
+
+def test_code_pointers_into_the_docs_resolve():
+    files = sorted(p for d in CODE_DIRS for p in (ROOT / d).rglob("*.py"))
+    assert len(files) > 50
+    assert not _dead_pointers(files), "\n".join(_dead_pointers(files))
+
+
+def test_pointer_check_catches_a_dead_pointer(tmp_path):
+    (tmp_path / "page.md").write_text("# Title\n\n## Run directory (`rollsim run`)\n")
+    code = tmp_path / "code.py"
+    code.write_text('"""See docs/page.md, "Run directory"; docs/page.md, "Title"; docs/gone.md;\n'
+                    'docs/page.md, "Nothing"."""\n')
+    assert _dead_pointers([code], docs=tmp_path) == ["code.py: docs/gone.md (no such page)",
+                                                      'code.py: docs/page.md, "Nothing" (no such heading)']
 
 
 def _documented_keys() -> set[str]:

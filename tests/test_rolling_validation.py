@@ -17,7 +17,7 @@ from rollsim.solver.rolling import WheelRolling
 from rollsim.studies.bearing_capacity import Soil, Wheel, wheel_forces
 from rollsim.studies.design import DATA, LAB_SOILS
 
-LAB_E, LAB_NU = 2.0e6, 0.45                  # clay of the small wheel's tests (lab_tests.md)
+LAB_E, LAB_NU = 2.0e6, 0.45                  # clay of the small wheel's tests (docs/validation.md)
 BED_HALF_WIDTH, BED_DEPTH = 0.125, 0.100    # m, the lab bed
 
 

@@ -15,8 +15,8 @@ __all__ = ["run_continuous", "ramp_advice", "VERIFIED_RAMP_RATE"]
 log = get_logger("run")
 
 #: fastest sinkage ramp of the continuous protocol shown to be slow enough (s per unit travel,
-#: = s/d per d): halving it from 0.02 to 0.01 changed Q_V at s/d = 0.05 by +1.7 %
-#: (``benchmarks/bench_rolling.py``; docs/benchmarks.md, "Ramp rate")
+#: = s/d per d): halving it moves Q_V by less than the fast mesh's ripple
+#: (``benchmarks/bench_rolling.py``; measured: see docs/benchmarks.md, "Ramp rate")
 VERIFIED_RAMP_RATE = 0.02
 
 
