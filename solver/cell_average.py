@@ -49,10 +49,15 @@ class CellProjection:
     ``strain``: pointwise Mandel strain of a Function (``w -> vector``, on the problem's
     configuration); ``Ct``: the tangent as a UFL matrix; ``J_n``: volume ratio of the
     configuration (1 in small strain); ``dx``: the elastoplastic cells' measure (the problem's
-    quadrature); ``rule``: its reference points and weights; ``degree``: 0 (cell mean) or 1."""
+    quadrature); ``rule``: its reference points and weights; ``degree``: 0 (cell mean) or 1;
+    ``fixed_configuration``: the mesh and ``J_n`` never change (small strain), so the matrices that
+    depend on them alone (``B`` and ``Bt``) are assembled once per set of Dirichlet conditions."""
+
+    #: the matrices that depend on the configuration only
+    GEOMETRIC = ("B", "Bt")
 
     def __init__(self, mesh, V, strain, Ct, J_n, dx, rule: tuple[np.ndarray, np.ndarray], n_cells: int,
-                 degree: int = 0):
+                 degree: int = 0, fixed_configuration: bool = False):
         if degree not in (0, 1):
             raise ValueError(f"degree must be 0 or 1, got {degree}")
         points, weights = rule
@@ -80,7 +85,9 @@ class CellProjection:
                        "H": fem.form(ufl.dot(r, psi) * ufl.dot(m, ufl.dot(Ct, e(w))) / 3.0 * J_n * dx),
                        "Bt": fem.form(ufl.dot(rt, psi) * mandel_trace(strain(v)) * J_n * dx),
                        "Gt": fem.form(ufl.dot(rt, psi) * ufl.dot(e(v), ufl.dot(Ct, m)) / 3.0 * J_n * dx)}
-        self._mats = {key: fpetsc.create_matrix(f) for key, f in self._forms.items()}
+        self._mats = {key: fpetsc.create_matrix(self._forms[key]) for key in ("H", "Gt")}
+        self._fixed = fixed_configuration
+        self._geometric: dict[tuple, dict[str, PETSc.Mat]] = {}   # Dirichlet conditions -> B, Bt
         imap = R.dofmap.index_map
         self._block_start = imap.local_range[0]
         self._block_of_cell = np.array([R.dofmap.cell_dofs(c)[0] for c in range(n_cells)], dtype=np.int64)
@@ -127,16 +134,35 @@ class CellProjection:
         mat.assemble()
         return mat
 
+    def _assembled(self, key: str, bcs, mat: PETSc.Mat) -> PETSc.Mat:
+        mat.zeroEntries()
+        fpetsc.assemble_matrix(mat, self._forms[key], bcs)
+        mat.assemble()
+        return mat
+
+    def _geometric_matrices(self, bcs) -> dict[str, PETSc.Mat]:
+        """``B`` and ``Bt`` with the rows and columns of ``bcs`` zero: kept while the configuration
+        is fixed (for the last two sets of conditions: with and without them), else reassembled."""
+        key = tuple(bcs)
+        mats = self._geometric.get(key)
+        if mats is not None and self._fixed:
+            return mats
+        if mats is None:
+            if len(self._geometric) >= 2:
+                for mat in self._geometric.pop(next(iter(self._geometric))).values():
+                    mat.destroy()
+            mats = self._geometric[key] = {k: fpetsc.create_matrix(self._forms[k]) for k in self.GEOMETRIC}
+        for k in self.GEOMETRIC:
+            self._assembled(k, bcs, mats[k])
+        return mats
+
     def coupling(self, bcs, tangent: np.ndarray, result: PETSc.Mat | None = None) -> PETSc.Mat:
         """The couplings within the cells at the current tangent (``tangent``: its values at the
         owned quadrature points, (points, components^2)) and configuration, a dof-by-dof matrix
         (into ``result`` when given); the rows and columns of the Dirichlet conditions ``bcs`` are
         zero."""
-        mats = self._mats
-        for key, form in self._forms.items():
-            mats[key].zeroEntries()
-            fpetsc.assemble_matrix(mats[key], form, bcs)
-            mats[key].assemble()
+        mats = {**self._geometric_matrices(bcs),
+                **{key: self._assembled(key, bcs, mat) for key, mat in self._mats.items()}}
         if self.weights is None:
             self.refresh()
         nc = self.ncomp

@@ -386,7 +386,8 @@ class PlasticityProblem:
         if bbar and not simplex:
             self._projection = CellProjection(mesh, self.V, eps, Ct, self._J_n, dx_soil,
                                               compat.quadrature_rule(mesh, self.qdeg), self.n_cells,
-                                              degree=1 if volumetric_projection is None else volumetric_projection)
+                                              degree=1 if volumetric_projection is None else volumetric_projection,
+                                              fixed_configuration=F_inv is None)
             self._sigma_bar = stress = fem.Function(self.Qs, name="stress_projected_trace")
         soil = (ufl.inner(stress, eps(v)) * self._J_n * dx_soil
                 - self.gravity_factor * ufl.inner(self.body_force, v) * dx_soil)

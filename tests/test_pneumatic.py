@@ -217,7 +217,7 @@ def test_rigid_indentation_to_a_load_is_refused_with_the_key(comm, tmp_mpi_path,
 @pytest.mark.slow
 def test_towed_tire_on_elastic_soil_rolls_free(comm):
     """The half tire inflated to 450 kPa by full Newton steps, pressed to 30 kN on an elastic soil
-    (E = 200 MPa, mu = 0.5; a block 1.7 d x 0.7 d x 0.6 d) and towed 0.16 m in steps of 1/8
+    (E = 200 MPa, mu = 0.5; a block 1.7 d x 0.7 d x 0.6 d) and towed 0.1 m in steps of 1/8
     element: every step holds the load within 0.2 % and the axle torque within 0.002 Q d; the
     soil's bottom carries the load (to 1e-6).  Nothing dissipates but the tread's slip, so the
     towing force is nearly zero (measured: within +-0.3 % of the load, mean -0.02 %), and the tire
@@ -238,8 +238,8 @@ def test_towed_tire_on_elastic_soil_rolls_free(comm):
     assert pr.press_to_load(load, 0.01 * D, 0.1) == "ok"
     deflection = pr.tire_state()["deflection_m"]
     steps = []
-    pr.roll_at_load(load, 0.16, 0.125 * D / 6, on_step=steps.append)
-    assert len(steps) >= 5 and pr.travel == pytest.approx(0.16)
+    pr.roll_at_load(load, 0.1, 0.125 * D / 6, on_step=steps.append)
+    assert len(steps) >= 3 and pr.travel == pytest.approx(0.1)
     for st in steps:
         assert abs(st.QV / load - 1) <= 1.01 * pr.load_rtol, st
         assert abs(st.moment) <= 1.01 * pr.moment_rtol * load * D, st
@@ -253,24 +253,24 @@ def test_towed_tire_on_elastic_soil_rolls_free(comm):
 
 
 def test_towed_tire_scene_runs_end_to_end(comm, tmp_mpi_path):
-    """``rollsim run`` of the towed-tire example (6 elements per d, 0.25 m of travel): exit 0; the
+    """``rollsim run`` of the towed-tire example (6 elements per d, 0.15 m of travel): exit 0; the
     history holds the press and the rolled steps; summary.json has the tire's figures, the travel,
     the rotation and the rolling radius; the load is held."""
     text = (EXAMPLE.parent / "pneumatic_rolling.toml").read_text()
-    text = re.sub(r'(?m)^travel = .*$', 'travel = "0.25 m"', text) + "refinement = 6\n"
+    text = re.sub(r'(?m)^travel = .*$', 'travel = "0.15 m"', text) + "refinement = 6\n"
     scene = _scene_file(tmp_mpi_path / "towed.toml", text)
     out = tmp_mpi_path / "towed"
     assert main(["run", str(scene), "--out", str(out), "--quiet"]) == 0
     summary = json.loads((out / "summary.json").read_text())
     assert summary["status"] == "ok", summary["reason"]
-    assert summary["travel_m"] == pytest.approx(0.25)
-    assert summary["rotation_rad"] > 0.2 / (D / 2)
+    assert summary["travel_m"] == pytest.approx(0.15)
+    assert summary["rotation_rad"] > 0.8 * 0.15 / (D / 2)
     assert summary["QV_N"] == pytest.approx(40e3, rel=3e-3)
     assert summary["tire"]["sinkage_m"] > 0 and summary["tire"]["deflection_m"] > 0
     assert summary["steady_state"]["reached"] is False
     with (out / "history.csv").open() as f:
         rows = list(csv.DictReader(f))
-    assert len(rows) == summary["steps"] and float(rows[-1]["travel_m"]) == pytest.approx(0.25)
+    assert len(rows) == summary["steps"] and float(rows[-1]["travel_m"]) == pytest.approx(0.15)
     assert [int(r["step"]) for r in rows] == list(range(1, len(rows) + 1))
     for name in ["rolling.png", *summary["files"]["contact_pressure"]]:
         assert (out / name).stat().st_size > 0, name
@@ -279,5 +279,5 @@ def test_towed_tire_scene_runs_end_to_end(comm, tmp_mpi_path):
     profile = np.loadtxt(out / summary["files"]["rut_profile"], delimiter=",", skiprows=1)
     x0 = summary["model"]["x_start_m"]
     rolled = (profile[:, 0] > x0) & (profile[:, 0] < x0 + summary["travel_m"])
-    assert rolled.sum() >= 2 and np.abs(profile[rolled, 1]).max() < 0.1 * summary["tire"]["sinkage_m"]
+    assert rolled.sum() >= 1 and np.abs(profile[rolled, 1]).max() < 0.1 * summary["tire"]["sinkage_m"]
     assert summary["rut_depth_m"] is None and "not rolled far enough" in summary["rut_note"]

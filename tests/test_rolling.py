@@ -111,7 +111,7 @@ def test_hexahedral_rolling_block_spans_the_wheel_with_the_elements_asked_for(co
         assert np.count_nonzero(y <= B / 2 + 1e-9) - 1 == across // 2          # intervals across the half width
         along = np.unique(np.round(top[np.abs(top[:, 1]) < 1e-9, 0], 9))
         assert np.diff(along).max() == pytest.approx(D / (along_per_d or 4), rel=0.2)   # elements per d along
-    summary = run_scene(_hexahedral_scene(), tmp_mpi_path, comm, progress=False, write_fields=False,
+    summary = run_scene(_hexahedral_scene(travel=0.05 * D), tmp_mpi_path, comm, progress=False, write_fields=False,
                         block=BLOCK, initial_sinkage=0.01 * D)
     assert summary["status"] == "ok", summary.get("reason")
     model = summary["model"]
@@ -119,7 +119,7 @@ def test_hexahedral_rolling_block_spans_the_wheel_with_the_elements_asked_for(co
     assert model["elements_per_d"] == 6 and model["elements_along_path"] == 12
     assert model["volumetric_strain"] == "cell-average"
     assert model["travel_step_m"] == pytest.approx(0.2 * D / 12, rel=0.05)   # a fifth of an element along
-    assert summary["travel_m"] == pytest.approx(0.1 * D) and summary["QH_N"] > 0
+    assert summary["travel_m"] == pytest.approx(0.05 * D) and summary["QH_N"] > 0
     assert abs(summary["moment_Nm"]) < 1e-8 * summary["QV_N"] * D
 
 
@@ -402,11 +402,13 @@ def test_travel_fallback_lets_non_associated_sand_roll(comm, tmp_mpi_path):
     scene: Newton fails during the roll on the unregularised soil; the roll starts over relaxed by
     the travel fallback and the wheel rolls to the end, history.csv holds the relaxed roll only,
     the summary lists the stretch (the whole roll), where the first roll failed, and the estimated
-    effect.  Without the fallback the same roll stops with the failure (serially: on 2
-    ranks the partition changes the path, which may then need no relaxation); doubling the fallback
-    moves Q_V by less than 1 % (compared when both runs relaxed: an unrelaxed route reads about
-    3 % higher); the lift-off after a relaxed roll is relaxed too.  The press before each roll has
-    the scene's default relaxation fallback, as the scene run has."""
+    effect.  The rate-independent roll failing is the scene's own first attempt, recorded with
+    where it failed (serially: on 2 ranks the partition changes the path, which may then need no
+    relaxation; a separate roll without the fallback stops at the same travel, 0.067 d, so the
+    test does not repeat it); doubling the fallback moves Q_V by less than 1 % (compared when
+    both runs relaxed: an unrelaxed route reads about 3 % higher); the lift-off after a relaxed
+    roll is relaxed too.  The press before the second roll has the scene's default relaxation
+    fallback, as the scene run has."""
     scene = parse_scene({"wheel": {"diameter": D, "width": B, "friction": 0.8},
                          "soil": {"gamma": GAMMA, "layers": [SAND_13]},
                          "loading": {"protocol": "rolling-continuous", "max_sinkage": 0.01 * D, "travel": 0.1 * D},
@@ -429,9 +431,6 @@ def test_travel_fallback_lets_non_associated_sand_roll(comm, tmp_mpi_path):
     else:
         assert "rate_independent_travel_failed_at_m" not in model, model
     sand = DruckerPrager(E=40e6, nu=0.35, phi_dp=math.radians(61.6), c_dp=18.5e3, dilation=0.0)
-    if comm.size == 1:
-        with pytest.raises(SolverDivergedError, match="Newton diverged"):
-            _rolled(comm, sand, 0.0, travel_relaxation_fallback=0.0, relaxation_fallback=DEFAULT_RELAXATION_FALLBACK)
     roll = _rolled_wheel(comm, sand, 0.0, 0.01 * D, None, None, travel_relaxation_fallback=1e-3,
                          relaxation_fallback=DEFAULT_RELAXATION_FALLBACK)
     half = roll.steps[-1]
@@ -652,7 +651,8 @@ def test_constant_load_rolling(tmp_mpi_path):
 
     The two protocols agree (within 5 %): the continuous protocol, ramped to the
     steady sinkage over 0.4 d and held there for 0.6 d, carries the load (mean Q_V over the last
-    0.3 d; +0.1 % when written, with an element ripple of about 4 %)."""
+    0.3 d; +0.1 % when written, with an element ripple of about 4 %; ramped over 0.3 d and held
+    for 0.5 d it reads +6 %)."""
     comm = MPI.COMM_SELF
     scene = _constant_load_scene(0.0, "300 kPa", "100 kN", 0.8 * D)
     # short block: a 1-element window, looked for as soon as it lies on the clay (the overshoot of
