@@ -55,16 +55,22 @@ def _takes_communicator(item) -> bool:
     return any(name in getattr(item, "fixturenames", ()) for name in COMMUNICATOR_FIXTURES)
 
 
+def _runs_in_parallel(item) -> bool:
+    """Under mpirun: a test that takes the communicator, unless it is a ``verification`` against an
+    exact or published value, whose parallel path the partition-independence tests check."""
+    return _takes_communicator(item) and item.get_closest_marker("verification") is None
+
+
 def pytest_collection_modifyitems(config, items):
     """Under mpirun keep only the tests that take the communicator (:data:`COMMUNICATOR_FIXTURES`):
     the others (return maps, parsers, the analytic model, ...) cannot depend on the partition and
-    ran in the serial pass.  Then share the long tests (measured in durations.json; a ``slow`` test
+    ran in the serial pass; nor do the ``verification`` tests run there (:func:`_runs_in_parallel`).  Then share the long tests (measured in durations.json; a ``slow`` test
     not in it counts as a minute) out among pytest-xdist's workers.  xdist 3.1 first hands each
     worker a block of consecutive tests, a quarter of its share; the long tests are dealt to those
     blocks, longest first to the least loaded, so no worker ends on a queue of them while another
     idles.  The other tests keep their file order."""
     if MPI.COMM_WORLD.size > 1:
-        takes = [_takes_communicator(item) for item in items]
+        takes = [_runs_in_parallel(item) for item in items]
         config.hook.pytest_deselected(items=[item for item, t in zip(items, takes) if not t])
         items[:] = [item for item, t in zip(items, takes) if t]
     workers = int(getattr(config, "workerinput", {}).get("workercount", 1))

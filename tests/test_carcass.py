@@ -71,6 +71,7 @@ def test_small_inflation_of_a_thick_sphere_is_lame(comm):
     assert grown == pytest.approx(exact_sphere_inflation(p)[0], rel=1e-3)
 
 
+@pytest.mark.verification
 def test_large_inflation_of_a_thick_sphere_converges_to_the_exact_solution(comm):
     """p = 0.1 E grows the cavity by 15.5 % of its radius, 42 % more than Lame's small-strain value:
     the follower pressure and the finite strain both matter.  On three meshes (element size 0.3 /

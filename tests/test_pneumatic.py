@@ -68,6 +68,7 @@ def test_a_tire_that_inflates_into_the_soil_is_refused(comm):
         pn.inflate(PRESSURE)
 
 
+@pytest.mark.verification
 def test_tire_on_stiff_soil_carries_what_it_carries_on_rigid_ground(comm):
     """Frictionless, on an elastic soil ten times stiffer than the carcass, pressed 30 mm after
     touching: the wheel load is that of the carcass on rigid ground (its own verified model, the
@@ -89,6 +90,7 @@ def test_tire_on_stiff_soil_carries_what_it_carries_on_rigid_ground(comm):
     assert max(r.iterations for r in records) <= 8, [r.iterations for r in records]
 
 
+@pytest.mark.verification
 def test_tire_sinks_into_clay(comm):
     """On a clay (von Mises, c = 60 kPa, E = 20 MPa), mu = 0.5: the hub lowered by 60 mm after
     touching presses the tire in; the soil yields under it; the sinkage (the lowest tire point) is

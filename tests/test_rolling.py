@@ -382,6 +382,7 @@ def _rolled_wheel(comm, material, relaxation_length: float, sinkage: float, weak
     return roll
 
 
+@pytest.mark.verification
 def test_relaxation_converges_to_rate_independent_rolling(comm):
     """Duvaut-Lions regularisation on the (associated) clay: the overstress raises Q_V in
     proportion to the relaxation length (first order, 0.7-1.3), by about 3 % at 1 mm."""

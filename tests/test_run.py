@@ -75,6 +75,7 @@ def test_cell_average_volumetric_strain_reaches_the_solver(comm, tmp_mpi_path):
     assert forces["cell-average"] < 0.97 * forces["pointwise"], forces
 
 
+@pytest.mark.verification
 def test_c0_indentation_scene_without_regularising_cohesion(comm, tmp_mpi_path):
     """A c = 0 drucker-prager layer with [model] regularising_cohesion = 0 runs with c = 0 exactly,
     rate-independent and then with a Duvaut-Lions relaxation length (which ends with the run; its

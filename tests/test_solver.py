@@ -300,6 +300,7 @@ def _convergence_order(hist):
     return float(np.median(orders))
 
 
+@pytest.mark.verification
 @pytest.mark.parametrize("volumetric_strain", ["cell-average", "pointwise"])
 def test_prandtl_von_mises_converges_to_2_plus_pi(comm, volumetric_strain):
     """Weightless Tresca (von Mises, plane-strain match) soil: p_lim -> (2 + pi) c.

@@ -236,6 +236,7 @@ def test_k0_helpers():
 
 
 # ----------------------------------------------------------------------------- FE: Prandtl
+@pytest.mark.verification
 def test_prandtl_smoothed_mohr_coulomb_phi20(comm):
     """Weightless smooth strip, associated smoothed MC, phi = 20 deg: p_lim = c N_c (exact for
     plane-strain Mohr-Coulomb).  Tolerance 3 % on n = 4: the discretisation error of this mesh

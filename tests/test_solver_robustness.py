@@ -47,6 +47,7 @@ def _n_gamma(comm, mat, n, phi, settlement, **kw) -> float:
     return fo.run(settlement, ctl).limit_pressure / (0.5 * GAMMA * B)
 
 
+@pytest.mark.verification
 def test_frictional_c0_footing_predictor(comm):
     """c = 0, phi = 30 deg, gamma = 18 kN/m3, K0 = 1 - sin(phi), n = 4.  Before (predictor
     'none', the old stepping): 64 steps, 23 cuts, 886 Newton iterations; with the extrapolated

@@ -171,6 +171,7 @@ def test_cell_projection_tangent_matches_central_differences(comm, cell, kinemat
     assert (fd - Jd).norm() < 2e-6 * Jd.norm()
 
 
+@pytest.mark.verification
 def test_prandtl_quadrilaterals_with_the_cell_projections(comm):
     """Q2 rectangles, n = 2, 4, 8: the linear projection (Q2-P1, the default) converges to
     (2 + pi) c from above, closest on the finest mesh; the cell mean (Q2-P0) from below; the
@@ -223,6 +224,7 @@ def _slab_footing(comm, n, volumetric_strain, cell=dmesh.CellType.tetrahedron, p
     return -pb.internal_force(w) / (0.5 * t)
 
 
+@pytest.mark.verification
 def test_prandtl_3d_tetrahedra_do_not_lock_with_cell_average_strain(comm):
     """3D slab in plane strain (structured tets, n = 2 cells across B/2): B-bar within 4 % of
     (2 + pi) c; the pointwise strain locks (overshoots by more than twice as much; measured +2.2 %
