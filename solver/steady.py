@@ -1,12 +1,15 @@
-"""Steady rolling in the load's frame (the stationary method): plane strain, a Hertz line pressure
-or a rigid cylinder (penalty contact, optionally Coulomb friction) moving over an elastoplastic
-soil, solved directly for the state that travels with the load.
+"""Steady rolling in the load's frame (the stationary method): a Hertz line pressure or a rigid
+cylinder (penalty contact, optionally Coulomb friction) moving over an elastoplastic soil in plane
+strain, or a rigid cylindrical wheel (frictionless) over a 3D half window, solved directly for the
+state that travels with the load.
 
-The load is fixed at x = 0 on the surface y = 0 and the soil flows through a window in -x: it
+The load is fixed at x = 0 on the surface (y = 0 in plane strain, z = 0 in 3D, where y runs
+across the travel from the symmetry plane y = 0) and the soil flows through a window in -x: it
 enters undisturbed at the front face x = x_in (``u = 0`` there, optionally with a geostatic
 stress) and leaves at the rear face x = x_out < x_in.  With small strain the streamlines are the
-lines y = const; on a structured quadrilateral mesh aligned with x and a tensor Gauss rule, the
-quadrature points of equal y form them.  The stress is not a history variable of a time step but
+lines of constant transverse coordinates (y; y and z); on a structured mesh of quadrilaterals or
+hexahedra aligned with x and a tensor Gauss rule, the quadrature points of equal transverse
+coordinates form them.  The stress is not a history variable of a time step but
 the result of marching the return map along each streamline from the inflow (a *sweep*)::
 
     state_0 = inflow state,   state_i = return_map(state_{i-1}, eps_i - eps_{i-1}),   eps_{-1} = 0
@@ -25,7 +28,8 @@ the traction of the swept stress at the last station of each streamline, ``t_out
 residual and in the Jacobian action; and the last column of cells is held invariant in x (its
 nodes move with those at its front, ``u = P z``), so the axial strain far behind is that of the
 soil around it (zero) rather than free: with the traction alone, a uniform axial stress over the
-window's rear is a near-null mode of the equations, which deep windows excite.  Rate-independent
+window's rear is a near-null mode of the equations, which deep windows excite.  In 3D the
+symmetry plane y = 0 and the far side face are rollers (``u_y = 0``).  Rate-independent
 plasticity needs only increments: the rolling speed drops out.
 
 Serial only for now (a streamline crosses the cells of several ranks otherwise).
@@ -69,7 +73,8 @@ DEFAULT_STEADY_OPTIONS = {
     "pc_factor_mat_solver_type": "mumps",
 }
 
-_NCOMP = 4                       # plane-strain Mandel vectors [xx, yy, zz, sqrt2 xy]
+#: Mandel components: plane strain [xx, yy, zz, sqrt2 xy]; 3D [xx, yy, zz, sqrt2 xy, sqrt2 yz, sqrt2 xz]
+NCOMP = {2: 4, 3: 6}
 _SQ2 = math.sqrt(2.0)
 _SQ23 = math.sqrt(2.0 / 3.0)
 
@@ -96,12 +101,17 @@ def _graded_cells(h: float, length: float, grading: float) -> np.ndarray:
 class RollingWindow:
     """The soil window of a steady rolling solve, in the load's frame (m).
 
-    The load's centre is at x = 0 on the surface y = 0; the soil enters at x = ``ahead`` and
-    leaves at x = -``behind``; the base (fixed) is at y = -``depth``.  Square cells of side
+    The load's centre is at x = 0 on the surface; the soil enters at x = ``ahead`` and leaves at
+    x = -``behind``; the base (fixed) lies ``depth`` below the surface.  Square cells of side
     ``half_width / cells_per_half_width`` fill the zone ``|x| <= fine_extent * half_width``,
-    ``y >= -fine_extent * half_width`` (nodes at x = +-half_width); outside it the cells grow by
+    ``depth <= fine_extent * half_width`` (nodes at x = +-half_width); outside it the cells grow by
     ``grading`` per cell.  ``refinement`` halves every cell that many times (nested meshes for
-    convergence studies)."""
+    convergence studies).
+
+    3D (a half window, symmetric about y = 0): ``across`` is the window's extent across the travel
+    from the symmetry plane and ``load_half_width_across`` the load's half width (m; half the
+    wheel's width); the fine cells span ``y <= fine_extent * load_half_width_across``.  Both None:
+    plane strain."""
 
     half_width: float
     ahead: float
@@ -111,6 +121,8 @@ class RollingWindow:
     fine_extent: float = 1.5
     grading: float = 1.3
     refinement: int = 0
+    across: float | None = None
+    load_half_width_across: float | None = None
 
     def __post_init__(self):
         for name in ("half_width", "ahead", "behind", "depth"):
@@ -129,6 +141,26 @@ class RollingWindow:
         if fine > min(self.ahead, self.behind) or fine > self.depth:
             raise ValueError(f"the fine zone ({fine:g} m about the load) must fit in the window "
                              f"(ahead {self.ahead:g}, behind {self.behind:g}, depth {self.depth:g} m)")
+        if (self.across is None) != (self.load_half_width_across is None):
+            raise ValueError("give both across and load_half_width_across (3D) or neither (plane strain)")
+        if self.across is not None:
+            for name in ("across", "load_half_width_across"):
+                val = getattr(self, name)
+                if not (isinstance(val, (int, float)) and math.isfinite(val) and val > 0):
+                    raise ValueError(f"{name} must be a positive finite length (m), got {val!r}")
+            if self.fine_across > self.across:
+                raise ValueError(f"the fine zone across ({self.fine_across:g} m from y = 0) must fit in the "
+                                 f"window (across {self.across:g} m)")
+
+    @property
+    def dimension(self) -> int:
+        """2 (plane strain) or 3 (half window)."""
+        return 2 if self.across is None else 3
+
+    @property
+    def fine_across(self) -> float:
+        """3D: extent of the fine zone across from the symmetry plane, a whole number of cells (m)."""
+        return math.ceil(self.fine_extent * self.load_half_width_across / self.cell_size - 1e-9) * self.cell_size
 
     @property
     def cell_size(self) -> float:
@@ -156,23 +188,37 @@ class RollingWindow:
         return self._refined(np.concatenate([rear[::-1], core, front]))
 
     def y_nodes(self) -> np.ndarray:
-        """Node ordinates from the base to the surface (m)."""
+        """Node heights from the base to the surface (m): y in plane strain, z in 3D."""
         h, fine = self.cell_size, self.fine_length
         n_fine = int(round(fine / h))
         core = np.linspace(-fine, 0.0, n_fine + 1)
         below = -fine - np.cumsum(_graded_cells(h, self.depth - fine, self.grading))
         return self._refined(np.concatenate([below[::-1], core]))
 
+    def across_nodes(self) -> np.ndarray:
+        """3D: node abscissae across the travel from the symmetry plane to the side face (m)."""
+        if self.across is None:
+            raise ValueError("a plane-strain window has no nodes across the travel")
+        h, fine = self.cell_size, self.fine_across
+        core = np.linspace(0.0, fine, int(round(fine / h)) + 1)
+        side = fine + np.cumsum(_graded_cells(h, self.across - fine, self.grading))
+        return self._refined(np.concatenate([core, side]))
+
 
 def rolling_window_mesh(comm: MPI.Comm, window: RollingWindow):
-    """Structured quadrilateral mesh of ``window`` (cells aligned with x and y)."""
-    xs, ys = window.x_nodes(), window.y_nodes()
-    nx, ny = len(xs) - 1, len(ys) - 1
-    msh = dmesh.create_rectangle(comm, [np.array([0.0, 0.0]), np.array([float(nx), float(ny)])], [nx, ny],
-                                 dmesh.CellType.quadrilateral)
+    """Structured mesh of ``window``, cells aligned with the axes: quadrilaterals in plane strain,
+    hexahedra in 3D."""
+    nodes = [window.x_nodes(), window.y_nodes()] if window.dimension == 2 else \
+        [window.x_nodes(), window.across_nodes(), window.y_nodes()]
+    counts = [len(n) - 1 for n in nodes]
+    corners = [np.zeros(len(counts)), np.array(counts, dtype=float)]
+    if len(counts) == 2:
+        msh = dmesh.create_rectangle(comm, corners, counts, dmesh.CellType.quadrilateral)
+    else:
+        msh = dmesh.create_box(comm, corners, counts, dmesh.CellType.hexahedron)
     x = msh.geometry.x
-    x[:, 0] = np.interp(x[:, 0], np.arange(nx + 1), xs)
-    x[:, 1] = np.interp(x[:, 1], np.arange(ny + 1), ys)
+    for axis, n in enumerate(nodes):
+        x[:, axis] = np.interp(x[:, axis], np.arange(counts[axis] + 1), n)
     return msh
 
 
@@ -207,8 +253,9 @@ class StreamlineState:
 
     def __post_init__(self):
         rows = self.accumulated_plastic_strain.shape
-        if len(rows) != 1 or self.stress.shape != rows + (_NCOMP,) or self.plastic_strain.shape != self.stress.shape:
-            raise ValueError(f"a streamline state needs (rows, {_NCOMP}) stresses and plastic strains and (rows,) "
+        if (len(rows) != 1 or self.stress.shape[:1] != rows or self.stress.ndim != 2
+                or self.stress.shape[1] not in NCOMP.values() or self.plastic_strain.shape != self.stress.shape):
+            raise ValueError("a streamline state needs (rows, 4 or 6) stresses and plastic strains and (rows,) "
                              f"accumulated plastic strains, got {self.stress.shape}, {self.plastic_strain.shape}, "
                              f"{self.accumulated_plastic_strain.shape}")
 
@@ -258,10 +305,15 @@ class HorizontalBalance:
 
 class SteadyRolling:
     """Steady rolling of a Hertz line pressure ``p(x) = p0 sqrt(1 - (x/half_width)^2)`` (Pa, m), or
-    of a rigid cylinder ``wheel`` (a :class:`~rollsim.solver.contact.Circle`) whose axle is held
-    above x = 0 (:meth:`solve_sinkage`, :meth:`solve_free_rolling`, :meth:`solve_load`), over the
-    soil of ``mesh`` (from :func:`rolling_window_mesh`: structured, aligned with x) in plane
-    strain, in the load's frame (module docstring).  Give exactly one of ``half_width`` and ``wheel``.
+    of a rigid cylinder ``wheel`` whose axle is held above x = 0 (:meth:`solve_sinkage`,
+    :meth:`solve_free_rolling`, :meth:`solve_load`), over the soil of ``mesh`` (from
+    :func:`rolling_window_mesh`: structured, aligned with x), in the load's frame (module
+    docstring).  Give exactly one of ``half_width`` and ``wheel``.
+
+    Plane strain (a quadrilateral mesh): ``wheel`` is a :class:`~rollsim.solver.contact.Circle`,
+    forces are per unit length (N/m).  3D (a hexahedral half window, y >= 0): ``wheel`` is a
+    ``CylinderWheel`` (axle along y, centred on y = 0), frictionless, no Hertz pressure; forces are
+    the whole wheel's (N: twice the half window's).
 
     The cylinder presses on the surface through the penalty law of
     :class:`~rollsim.solver.contact.RigidWheelContact`: ``p_N = kappa <-g>_+`` on the gap ``g``
@@ -286,24 +338,37 @@ class SteadyRolling:
             raise NotImplementedError(
                 f"steady rolling runs on one rank for now, the mesh's communicator has {self.comm.size}: "
                 "its streamlines would cross the cells of several ranks")
-        if compat.cell_name(mesh) != "quadrilateral":
-            raise ValueError("steady rolling needs a structured quadrilateral mesh, got "
-                             f"{compat.cell_name(mesh)} cells")
+        gdim = mesh.geometry.dim
+        cells = {2: "quadrilateral", 3: "hexahedron"}.get(gdim)
+        if compat.cell_name(mesh) != cells:
+            raise ValueError(f"steady rolling needs a structured mesh of {cells or 'quadrilateral or hexahedron'} "
+                             f"cells, got {compat.cell_name(mesh)} cells")
         if (half_width is None) == (wheel is None):
             raise ValueError("give exactly one load: the Hertz pressure's half_width or a rigid wheel")
+        if half_width is not None and gdim == 3:
+            raise ValueError("the Hertz line pressure is plane strain: roll a wheel over a 3D window")
         if half_width is not None and not (math.isfinite(half_width) and half_width > 0):
             raise ValueError(f"half_width must be a positive length (m), got {half_width!r}")
-        if wheel is not None and not isinstance(wheel, Circle):
-            raise TypeError(f"wheel must be a Circle (plane strain), got {type(wheel).__name__}")
+        from rollsim.geometry import CylinderWheel
+        wheel_type = Circle if gdim == 2 else CylinderWheel
+        if wheel is not None and not isinstance(wheel, wheel_type):
+            raise TypeError(f"wheel must be a {wheel_type.__name__} in {gdim}D, got {type(wheel).__name__}")
         if not (math.isfinite(penalty) and penalty > 0):
             raise ValueError(f"penalty must be a positive factor, got {penalty!r}")
         if not (math.isfinite(friction) and friction >= 0):
             raise ValueError(f"friction must be a Coulomb coefficient >= 0, got {friction!r}")
         if friction and wheel is None:
             raise ValueError("friction needs a rigid wheel (the Hertz pressure is frictionless)")
+        if friction and gdim == 3:
+            raise NotImplementedError("friction in 3D steady rolling is not available: roll frictionless "
+                                      "(friction = 0) or in plane strain")
         if not (math.isfinite(unit_weight) and unit_weight >= 0):
             raise ValueError(f"unit_weight must be >= 0 (N/m^3), got {unit_weight!r}")
         self.mesh, self.material, self.wheel = mesh, material, wheel
+        self.gdim, self.ncomp = gdim, NCOMP[gdim]
+        self._up = gdim - 1                        # the vertical axis
+        #: the whole wheel's share of the modelled soil's forces (3D: a half window)
+        self.symmetry = 1.0 if gdim == 2 else 2.0
         self.friction = float(friction)
         #: the wheel's dimensionless spin ``xi = omega R / V`` (-; ``omega`` in the rolling sense, 1:
         #: rolling without slip on a rigid surface)
@@ -312,12 +377,12 @@ class SteadyRolling:
         self.half_width = None if half_width is None else float(half_width)
         self.control = control or NewtonKrylovControl()
         self.qdeg = 2 * degree if quadrature_degree is None else quadrature_degree
-        self.D = elastic_stiffness(material, _NCOMP)
+        self.D = elastic_stiffness(material, self.ncomp)
         self._D_inv = np.linalg.inv(self.D)
 
         x = mesh.geometry.x
         self.x_in, self.x_out = float(x[:, 0].max()), float(x[:, 0].min())
-        self.surface, self.base = float(x[:, 1].max()), float(x[:, 1].min())
+        self.surface, self.base = float(x[:, self._up].max()), float(x[:, self._up].min())
         self.V = compat.vector_space(mesh, degree)
         self.u = fem.Function(self.V, name="displacement")
         self._du = fem.Function(self.V)
@@ -327,12 +392,12 @@ class SteadyRolling:
         self.n_qp = self.n_cells * self._n_points
         coords = compat.evaluate(compat.expression(ufl.SpatialCoordinate(mesh), points), mesh)
         #: coordinates of the quadrature points (m), in the quadrature spaces' order
-        self.quadrature_coordinates = coords.reshape(self.n_qp, 2)
+        self.quadrature_coordinates = coords.reshape(self.n_qp, gdim)
         self._order, self.streamline_depths = self._streamlines()
-        self._strain_expr = compat.expression(mandel_strain(self.u, 2), points)
-        self._dstrain_expr = compat.expression(mandel_strain(self._du, 2), points)
+        self._strain_expr = compat.expression(mandel_strain(self.u, gdim), points)
+        self._dstrain_expr = compat.expression(mandel_strain(self._du, gdim), points)
 
-        Qs = compat.quadrature_space(mesh, self.qdeg, (_NCOMP,))
+        Qs = compat.quadrature_space(mesh, self.qdeg, (self.ncomp,))
         self._sigma, self._dsigma = fem.Function(Qs, name="stress"), fem.Function(Qs)
         self._traction_space = compat.vector_space(mesh, degree, "DQ")
         self._traction, self._dtraction = fem.Function(self._traction_space), fem.Function(self._traction_space)
@@ -340,15 +405,28 @@ class SteadyRolling:
 
         fdim = mesh.topology.dim - 1
         tol = 1e-9 * (self.x_in - self.x_out)
+        up = self._up
         front = dmesh.locate_entities_boundary(mesh, fdim, lambda p: np.abs(p[0] - self.x_in) < tol)
-        base = dmesh.locate_entities_boundary(mesh, fdim, lambda p: np.abs(p[1] - self.base) < tol)
-        top = dmesh.locate_entities_boundary(mesh, fdim, lambda p: np.abs(p[1] - self.surface) < tol)
+        base = dmesh.locate_entities_boundary(mesh, fdim, lambda p: np.abs(p[up] - self.base) < tol)
+        top = dmesh.locate_entities_boundary(mesh, fdim, lambda p: np.abs(p[up] - self.surface) < tol)
         rear = dmesh.locate_entities_boundary(mesh, fdim, lambda p: np.abs(p[0] - self.x_out) < tol)
         fixed = fem.locate_dofs_topological(self.V, fdim, np.unique(np.concatenate([front, base])))
         #: nodes of the inflow face, and of the base but not the inflow face (their reactions)
         self._inflow_nodes = fem.locate_dofs_topological(self.V, fdim, front)
         self._base_nodes = np.setdiff1d(fem.locate_dofs_topological(self.V, fdim, base), self._inflow_nodes)
-        self.bcs = [fem.dirichletbc(np.zeros(2, dtype=PETSc.ScalarType), fixed, self.V)]
+        self._fixed_nodes = fixed
+        self.bcs = [fem.dirichletbc(np.zeros(gdim, dtype=PETSc.ScalarType), fixed, self.V)]
+        bs = self.V.dofmap.index_map_bs
+        self._fixed = (fixed[:, None] * bs + np.arange(bs)).reshape(-1)     # unrolled dof indices
+        if gdim == 3:                # rollers: the symmetry plane y = 0 and the side face
+            y_side = float(x[:, 1].max())
+            sides = dmesh.locate_entities_boundary(
+                mesh, fdim, lambda p: (np.abs(p[1]) < tol) | (np.abs(p[1] - y_side) < tol))
+            lateral = fem.locate_dofs_topological(self.V.sub(1), fdim, sides)
+            if not np.all(lateral % bs == 1):
+                raise RuntimeError("the lateral faces' dofs of u_y are not in the unrolled numbering expected")
+            self.bcs.append(fem.dirichletbc(PETSc.ScalarType(0.0), lateral, self.V.sub(1)))
+            self._fixed = np.union1d(self._fixed, lateral)
         facets = np.concatenate([top, rear])
         tags = np.concatenate([np.full(len(top), 1, np.int32), np.full(len(rear), 2, np.int32)])
         order = np.argsort(facets)
@@ -357,26 +435,27 @@ class SteadyRolling:
 
         v, w = ufl.TestFunction(self.V), ufl.TrialFunction(self.V)
         X = ufl.SpatialCoordinate(mesh)
+        eps_v = mandel_strain(v, gdim)
         # the pressure's square-root ends and the contact's edge need more points than the displacement's degree
         ds_top = ds(1, metadata={"quadrature_degree": 4 * degree + 4})
         self._contact_stiffness = None
         if wheel is None:
             self.peak = fem.Constant(mesh, PETSc.ScalarType(0.0))
             pressure = self.peak * ufl.sqrt(ufl.max_value(1.0 - (X[0] / self.half_width) ** 2, 0.0))
-            load = pressure * v[1] * ds_top
+            load = pressure * v[up] * ds_top
         else:
             self.axle_height = fem.Constant(mesh, PETSc.ScalarType(self.surface + wheel.diameter / 2))
             h = float(np.diff(np.unique(np.round(x[:, 0], 12))).min())
             self.kappa = penalty * material.E / h
-            gap, normal = ufl_signed_distance(wheel, X + self.u - ufl.as_vector([0.0, self.axle_height]))
+            axle = ufl.as_vector([0.0] * up + [self.axle_height])
+            gap, normal = ufl_signed_distance(wheel, X + self.u - axle)
             traction = self.kappa * ufl.max_value(-gap, 0.0) * normal          # on the soil
             load = -ufl.inner(traction, v) * ds_top
-            self._vertical_force = fem.form(-traction[1] * ds_top)
+            self._vertical_force = fem.form(-traction[up] * ds_top)
             self._towing_force = fem.form(traction[0] * ds_top)
             self._contact_stiffness = fem.form(ufl.derivative(load, self.u, w))
         if unit_weight:
-            load += unit_weight * v[1] * dx
-        eps_v = mandel_strain(v, 2)
+            load += unit_weight * v[up] * dx
         # the rear face's Gauss points lie on the streamlines: the traction's trace there is exact
         ds_rear = ds(2, metadata={"quadrature_degree": self.qdeg})
         self._outflow_force = fem.form(self._traction[0] * ds_rear)
@@ -384,11 +463,9 @@ class SteadyRolling:
         self._Jv = fem.form(ufl.inner(self._dsigma, eps_v) * dx - ufl.inner(self._dtraction, v) * ds_rear)
         self._load = fem.form(load)
         Dm = ufl.as_matrix(self.D.tolist())
-        K = fpetsc.assemble_matrix(fem.form(ufl.inner(ufl.dot(Dm, mandel_strain(w, 2)), eps_v) * dx), bcs=self.bcs)
+        K = fpetsc.assemble_matrix(fem.form(ufl.inner(ufl.dot(Dm, mandel_strain(w, gdim)), eps_v) * dx), bcs=self.bcs)
         K.assemble()
         self._b = compat.create_vector(self._F)
-        bs = self.V.dofmap.index_map_bs
-        self._fixed = (fixed[:, None] * bs + np.arange(bs)).reshape(-1)     # unrolled dof indices
         self._tie = self._rear_tie()
         self._elastic_matrix = self._reduced_matrix(K)
         if wheel is None:
@@ -396,7 +473,9 @@ class SteadyRolling:
             K = None
         self._elastic_full = K               # under a wheel, the contact's stiffness is added to it
         self._full = self._b.duplicate()
-        if wheel is not None:
+        #: the friction's surface streamline (plane strain)
+        self._friction_line = wheel is not None and gdim == 2
+        if self._friction_line:
             self._surface_stations()
 
         self.inflow = self._geostatic_state(unit_weight, K0)
@@ -410,22 +489,27 @@ class SteadyRolling:
 
     # ------------------------------------------------------------------ set-up
     def _streamlines(self) -> tuple[np.ndarray, np.ndarray]:
-        """Quadrature points as (rows, stations): rows of equal y from the surface down, each from
-        the inflow (largest x) to the outflow; and the rows' depths below the surface (m)."""
-        xq, yq = self.quadrature_coordinates[:, 0], self.quadrature_coordinates[:, 1]
-        order = np.argsort(-yq, kind="stable")
-        gaps = np.flatnonzero(np.diff(-yq[order]) > 1e-9 * (self.surface - self.base)) + 1
-        rows = np.split(order, gaps)
+        """Quadrature points as (rows, stations): rows of equal transverse coordinates from the
+        surface down (then across from y = 0 in 3D), each from the inflow (largest x) to the
+        outflow; and the rows' depths below the surface (m)."""
+        coords = self.quadrature_coordinates
+        xq, height = coords[:, 0], coords[:, self._up]
+        tol = 1e-9 * (self.surface - self.base)
+        levels = [_levels(-height, tol)] + [_levels(coords[:, k], tol) for k in range(1, self._up)]
+        key = np.ravel_multi_index(levels, [lv.max() + 1 for lv in levels])
+        order = np.argsort(key, kind="stable")
+        rows = np.split(order, np.flatnonzero(np.diff(key[order])) + 1)
         if len({len(r) for r in rows}) != 1:
             raise ValueError("the quadrature points do not form streamlines of equal length: the mesh must be "
                              "a structured grid of cells aligned with x (rolling_window_mesh)")
         table = np.array([r[np.argsort(-xq[r], kind="stable")] for r in rows])
-        return table, self.surface - yq[table[:, 0]]
+        return table, self.surface - height[table[:, 0]]
 
     def _outflow_map(self) -> None:
         """Where the rear face's traction goes: for each cell on the rear face, its traction dofs
-        on the face and the three streamlines whose last station lies in it, with the quadratic
-        Lagrange weights from those stations' y to the dofs' y."""
+        on the face and the streamlines whose last station lies in it (three Gauss rows in plane
+        strain, three by three in 3D), with the quadratic Lagrange weights (tensor products in 3D)
+        from those stations' transverse coordinates to the dofs'."""
         last = self._order[:, -1]
         cell_of_row = last // self._n_points
         dof_x = self._traction_space.tabulate_dof_coordinates()
@@ -433,19 +517,26 @@ class SteadyRolling:
         tol = 1e-9 * (self.x_in - self.x_out)
         cells = np.unique(cell_of_row)
         face_dofs, face_rows, weights = [], [], []
-        y_row = self.quadrature_coordinates[last, 1]
+        transverse = range(1, self.gdim)
+        n_face = 3 ** (self.gdim - 1)
         for c in cells:
             rows = np.flatnonzero(cell_of_row == c)
             on_face = dofs[c][np.abs(dof_x[dofs[c], 0] - self.x_out) < tol]
-            if len(rows) != 3 or len(on_face) != 3:
-                raise ValueError("the rear face's traction needs quadratic Lagrange cells with three Gauss rows "
+            if len(rows) != n_face or len(on_face) != n_face:
+                raise ValueError(f"the rear face's traction needs quadratic Lagrange cells with {n_face} Gauss rows "
                                  f"(cell {c}: {len(rows)} rows, {len(on_face)} face dofs)")
-            yg, yn = y_row[rows], dof_x[on_face, 1]
-            L = np.ones((3, 3))
-            for g in range(3):
-                for m in range(3):
-                    if m != g:
-                        L[:, g] *= (yn - yg[m]) / (yg[g] - yg[m])
+            L = np.ones((n_face, n_face))
+            for k in transverse:
+                at = self.quadrature_coordinates[last[rows], k]
+                points = np.unique(np.round(at, 12))
+                if len(points) != 3:
+                    raise ValueError(f"the rear face's cell {c} has {len(points)} Gauss abscissae along axis {k}, not 3")
+                which = np.abs(at[:, None] - points[None, :]).argmin(axis=1)
+                yn = dof_x[on_face, k]
+                for g in range(n_face):
+                    for m in range(3):
+                        if m != which[g]:
+                            L[:, g] *= (yn - points[m]) / (points[which[g]] - points[m])
             face_dofs.append(on_face)
             face_rows.append(rows)
             weights.append(L)
@@ -461,13 +552,18 @@ class SteadyRolling:
         vertex_x = np.unique(np.round(self.mesh.geometry.x[:, 0], 12))
         x_tie = vertex_x[1]
         tol = 1e-9 * (self.x_in - self.x_out)
-        fixed_nodes = np.unique(self._fixed // bs)
-        rear = np.setdiff1d(np.flatnonzero(X[:n_nodes, 0] < x_tie - tol), fixed_nodes)
+        rear = np.setdiff1d(np.flatnonzero(X[:n_nodes, 0] < x_tie - tol), self._fixed_nodes)
         front = np.flatnonzero(np.abs(X[:n_nodes, 0] - x_tie) < tol)
-        front = front[np.argsort(X[front, 1])]
-        master = front[np.searchsorted(X[front, 1], X[rear, 1] - tol)]
-        if not np.allclose(X[master, 1], X[rear, 1], atol=tol):
-            raise ValueError("the last column of cells has no front node at the height of every rear node")
+        # the front node at the same transverse coordinates as each rear node
+        levels = [_levels(X[np.concatenate([front, rear]), k], tol) for k in range(1, self.gdim)]
+        key = np.ravel_multi_index(levels, [lv.max() + 1 for lv in levels])
+        front_key, rear_key = key[:len(front)], key[len(front):]
+        by_key = np.argsort(front_key)
+        at = np.minimum(np.searchsorted(front_key[by_key], rear_key), len(front) - 1)
+        master = front[by_key[at]]
+        if not np.array_equal(front_key[by_key[at]], rear_key):
+            raise ValueError("the last column of cells has no front node at the transverse coordinates of "
+                             "every rear node")
         n = n_nodes * bs
         cols = np.arange(n)
         slaves = (rear[:, None] * bs + np.arange(bs)).reshape(-1)
@@ -562,18 +658,18 @@ class SteadyRolling:
             local.array.reshape(-1, 2)[nodes] -= forces[self._surface_free]
 
     def _geostatic_state(self, unit_weight: float, K0: float | None) -> StreamlineState:
-        rows = len(self.streamline_depths)
-        stress = np.zeros((rows, _NCOMP))
+        rows, nc = len(self.streamline_depths), self.ncomp
+        stress = np.zeros((rows, nc))
         self.K0 = None
         if unit_weight:
-            k0, clipped = admissible_k0(self.material, K0, unit_weight * (self.surface - self.base), _NCOMP)
+            k0, clipped = admissible_k0(self.material, K0, unit_weight * (self.surface - self.base), nc)
             if clipped:
                 log.warning("K0 violates the yield condition under self weight; using K0 = %.4g", k0)
             sv = -unit_weight * self.streamline_depths
-            stress[:, [0, 2]] = (k0 * sv)[:, None]
-            stress[:, 1] = sv
+            stress[:, [k for k in range(3) if k != self._up]] = (k0 * sv)[:, None]
+            stress[:, self._up] = sv
             self.K0 = k0
-        return StreamlineState(stress, np.zeros((rows, _NCOMP)), np.zeros(rows))
+        return StreamlineState(stress, np.zeros((rows, nc)), np.zeros(rows))
 
     def _krylov_solver(self) -> PETSc.KSP:
         n = self.V.dofmap.index_map.size_local * self.V.dofmap.index_map_bs
@@ -591,19 +687,20 @@ class SteadyRolling:
 
     # ------------------------------------------------------------------ sweeps
     def _point_values(self, expr) -> np.ndarray:
-        return compat.evaluate(expr, self.mesh).reshape(self.n_qp, _NCOMP)
+        return compat.evaluate(expr, self.mesh).reshape(self.n_qp, self.ncomp)
 
     def _store(self, f: fem.Function, rows_values: np.ndarray) -> None:
-        """Put (rows, stations, 4) values at their quadrature points of ``f``."""
-        flat = np.empty((self.n_qp, _NCOMP))
+        """Put (rows, stations, components) values at their quadrature points of ``f``."""
+        flat = np.empty((self.n_qp, self.ncomp))
         flat[self._order] = rows_values
         f.x.array[: flat.size] = flat.reshape(-1)
 
     def _store_traction(self, f: fem.Function, stress: np.ndarray) -> None:
         """The rear face's traction ``sigma n`` (n = -e_x) of the last stations' ``stress``."""
-        t = np.stack([-stress[:, 0], -stress[:, 3] / _SQ2], axis=1)          # (rows, 2)
+        shear = [3] if self.gdim == 2 else [3, 5]                          # sqrt2 xy (and sqrt2 xz)
+        t = -np.concatenate([stress[:, :1], stress[:, shear] / _SQ2], axis=1)   # (rows, gdim)
         nodal = np.einsum("cng,cgk->cnk", self._face_weights, t[self._face_rows])
-        f.x.array.reshape(-1, 2)[self._face_dofs] = nodal
+        f.x.array.reshape(-1, self.gdim)[self._face_dofs] = nodal
 
     def _sweep(self, inflow: StreamlineState) -> None:
         """March the return map along the streamlines at the current displacement."""
@@ -612,8 +709,8 @@ class SteadyRolling:
         sigma, eps_p = inflow.stress.copy(), inflow.plastic_strain.copy()
         acc = inflow.accumulated_plastic_strain.copy()
         S, EP = np.empty_like(strain), np.empty_like(strain)
-        C, ACC = np.empty((rows, stations, _NCOMP, _NCOMP)), np.empty((rows, stations))
-        previous = np.zeros((rows, _NCOMP))
+        C, ACC = np.empty((rows, stations, self.ncomp, self.ncomp)), np.empty((rows, stations))
+        previous = np.zeros((rows, self.ncomp))
         for i in range(stations):
             res = return_map(self.material, sigma, strain[:, i] - previous)
             sigma = res.sigma
@@ -653,7 +750,7 @@ class SteadyRolling:
         """The residual (N/m) of the current displacement, ``P^T R``: sweep, then assemble."""
         self._sweep(inflow)
         self._assemble(self._F, self._full)
-        if self.wheel is not None:
+        if self._friction_line:
             self._add_friction(self._full, self._friction_sweep())
         self._tie.multTranspose(self._full, self._b)
         return self._b
@@ -683,7 +780,7 @@ class SteadyRolling:
         self._assemble(self._Jv, self._full)
         if self._contact_matrix is not None:
             self._contact_matrix.multAdd(du, self._full, self._full)
-        if self.wheel is not None:
+        if self._friction_line:
             self._add_friction(self._full, self._friction_tangent(self._du.x.array.reshape(-1, 2)[self._surface_nodes]))
         self._tie.multTranspose(self._full, y)
         keep = np.concatenate([self._fixed, self._slaves])
@@ -704,26 +801,47 @@ class SteadyRolling:
         result.peak_pressure = float(peak_pressure)
         return result
 
-    def solve_sinkage(self, sinkage: float, inflow: StreamlineState | None = None) -> SteadyRollingResult:
+    def solve_sinkage(self, sinkage: float, inflow: StreamlineState | None = None, *,
+                      max_cuts: int = 4) -> SteadyRollingResult:
         """The steady state under the rigid wheel with its lowest point ``sinkage`` (m) below the
         undisturbed surface, turning at :attr:`spin`, with the contact's forces and torque on it;
         Newton starts from the last solve's displacement (continuation: step the sinkage up).
-        ``inflow`` as in :meth:`solve`."""
+        When Newton fails on the way down from the last solve's sinkage (or from the surface), the
+        step is halved, from the last converged state, up to ``max_cuts`` times.  ``inflow`` as
+        in :meth:`solve`."""
         if self.wheel is None:
             raise RuntimeError("this steady solve rolls a Hertz pressure: call solve()")
         if not (math.isfinite(sinkage) and sinkage > 0):
             raise ValueError(f"sinkage must be a positive depth (m), got {sinkage!r}")
+        if not (isinstance(max_cuts, int) and max_cuts >= 0):
+            raise ValueError(f"max_cuts must be an integer >= 0, got {max_cuts!r}")
+        start = 0.0 if self._last_sinkage is None else self._last_sinkage
+        u0 = self.u.x.array.copy()
+        try:
+            return self._solve_sinkage(sinkage, inflow)
+        except NoSteadyState as err:
+            if max_cuts == 0 or not start < sinkage:
+                raise
+            self.u.x.array[:] = u0
+            middle = 0.5 * (start + sinkage)
+            log.info("steady rolling: %s; cutting the step: first at the sinkage %.6g m", err, middle)
+            self.solve_sinkage(middle, inflow, max_cuts=max_cuts - 1)
+            return self.solve_sinkage(sinkage, inflow, max_cuts=max_cuts - 1)
+
+    def _solve_sinkage(self, sinkage: float, inflow: StreamlineState | None) -> SteadyRollingResult:
         self.axle_height.value = self.surface + self.wheel.diameter / 2 - sinkage
         result = self._newton(inflow, f"at the sinkage {sinkage:.6g} m")
         result.sinkage = self._last_sinkage = float(sinkage)
-        result.vertical_force = float(fem.assemble_scalar(self._vertical_force))
-        result.towing_force = float(fem.assemble_scalar(self._towing_force))
-        forces = self._friction_sweep()                         # on the soil, at the converged state
-        P = self._friction_state[0]
-        result.vertical_force -= float(forces[:, 1].sum())
-        result.towing_force += float(forces[:, 0].sum())
+        result.vertical_force = self.symmetry * float(fem.assemble_scalar(self._vertical_force))
+        result.towing_force = self.symmetry * float(fem.assemble_scalar(self._towing_force))
         result.spin = self.spin
-        result.axle_torque = -float(np.sum(P[:, 0] * forces[:, 1] - P[:, 1] * forces[:, 0]))
+        result.axle_torque = 0.0          # frictionless: the normal pressure passes through the axle
+        if self._friction_line:
+            forces = self._friction_sweep()                     # on the soil, at the converged state
+            P = self._friction_state[0]
+            result.vertical_force -= float(forces[:, 1].sum())
+            result.towing_force += float(forces[:, 0].sum())
+            result.axle_torque = -float(np.sum(P[:, 0] * forces[:, 1] - P[:, 1] * forces[:, 0]))
         return result
 
     def solve_free_rolling(self, sinkage: float, inflow: StreamlineState | None = None, *,
@@ -926,19 +1044,33 @@ class SteadyRolling:
             local.set(0.0)
         fpetsc.assemble_vector(reaction, self._F)
         reaction.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        r = reaction.array_r.reshape(-1, 2)[:, 0]
+        r = reaction.array_r.reshape(-1, self.gdim)[:, 0]
         inflow, base = float(r[self._inflow_nodes].sum()), float(r[self._base_nodes].sum())
         reaction.destroy()
         outflow = -float(fem.assemble_scalar(self._outflow_force))
-        return HorizontalBalance(outflow_axial=outflow, inflow_axial=inflow, base_shear=-base)
+        k = self.symmetry
+        return HorizontalBalance(outflow_axial=k * outflow, inflow_axial=k * inflow, base_shear=-k * base)
 
     def surface_displacement(self) -> tuple[np.ndarray, np.ndarray]:
-        """``(x, u)`` of the displacement's nodes on the surface, ordered by x (m, m)."""
+        """``(x, u)`` of the displacement's nodes on the surface (in 3D on the centre line y = 0),
+        ordered by x (m, m)."""
         X = self.V.tabulate_dof_coordinates()
         n = self.V.dofmap.index_map.size_local
-        top = np.flatnonzero(np.abs(X[:n, 1] - self.surface) < 1e-9 * (self.x_in - self.x_out))
+        tol = 1e-9 * (self.x_in - self.x_out)
+        on = np.abs(X[:n, self._up] - self.surface) < tol
+        if self.gdim == 3:
+            on &= np.abs(X[:n, 1]) < tol
+        top = np.flatnonzero(on)
         top = top[np.argsort(X[top, 0])]
-        return X[top, 0], self.u.x.array.reshape(-1, 2)[top]
+        return X[top, 0], self.u.x.array.reshape(-1, self.gdim)[top]
+
+
+def _levels(values: np.ndarray, tol: float) -> np.ndarray:
+    """The rank of each value among the distinct values (those closer than ``tol`` count as one)."""
+    order = np.argsort(values, kind="stable")
+    rank = np.empty(len(values), dtype=np.int64)
+    rank[order] = np.concatenate([[0], np.cumsum(np.diff(values[order]) > tol)])
+    return rank
 
 
 class _JacobianAction:

@@ -12,8 +12,10 @@ import pytest
 import ufl
 from dolfinx import fem, mesh as dmesh
 from mpi4py import MPI
+from petsc4py import PETSc
 
 from rollsim import compat
+from rollsim.geometry import CylinderWheel
 from rollsim.solver import VonMises
 from rollsim.solver.contact import Circle, RigidWheelContact
 from rollsim.solver.problem import PlasticityProblem, mandel_strain
@@ -467,3 +469,90 @@ def test_towed_wheel_at_constant_load():
     assert abs(res.axle_torque) <= 1e-6 * WHEEL.diameter / 2 * res.vertical_force
     assert 0.0098 < res.sinkage < 0.0102 and res.spin < 1.0 and res.towing_force > 0
     assert st.horizontal_balance().towing_force == pytest.approx(res.towing_force, abs=1e-7 * res.vertical_force)
+
+
+# ------------------------------------------------------------------------------------- 3D
+ROLLER = CylinderWheel(1.524, 0.4572, 0.4572 / 12)      # the Mn/DOT roller's size
+CLAY_3D = VonMises(E=40e6, nu=0.35, yield_stress=200e3)
+ELASTIC_3D = VonMises(E=40e6, nu=0.35, yield_stress=1e12)
+#: a coarse half window about the roller at s = 2.5-10 mm (contact half length about 0.06-0.12 m)
+WINDOW_3D = RollingWindow(half_width=0.15, ahead=0.45, behind=0.6, depth=0.45, cells_per_half_width=2,
+                          across=0.45, load_half_width_across=ROLLER.width / 2)
+
+
+def test_3d_window_is_a_structured_half_block_of_hexahedra():
+    """The 3D window: hexahedra aligned with the axes, y from the symmetry plane to ``across``,
+    the fine cells over the roller's half width; the streamlines are the rows of quadrature points
+    of equal (y, z), all of one length; a window too narrow for its fine zone is refused."""
+    msh = rolling_window_mesh(MPI.COMM_SELF, WINDOW_3D)
+    assert compat.cell_name(msh) == "hexahedron"
+    x = msh.geometry.x
+    assert x[:, 1].min() == 0.0 and x[:, 1].max() == pytest.approx(0.45) and x[:, 2].max() == pytest.approx(0.0)
+    assert WINDOW_3D.fine_across >= ROLLER.width / 2
+    ys = WINDOW_3D.across_nodes()
+    assert np.allclose(np.diff(ys[ys <= WINDOW_3D.fine_across + 1e-12]), WINDOW_3D.cell_size)
+    st = SteadyRolling(msh, ELASTIC_3D, wheel=ROLLER)
+    n_rows = (3 * (len(ys) - 1)) * (3 * (len(WINDOW_3D.y_nodes()) - 1))
+    assert st.streamline_depths.shape == (n_rows,)
+    assert np.all(np.diff(st.streamline_depths) >= -1e-12)            # from the surface down
+    with pytest.raises(ValueError, match="across"):
+        replace(WINDOW_3D, across=0.3)
+    with pytest.raises(ValueError, match="both"):
+        RollingWindow(half_width=0.15, ahead=0.6, behind=0.9, depth=0.6, across=0.6)
+    with pytest.raises(NotImplementedError, match="friction"):
+        SteadyRolling(msh, ELASTIC_3D, wheel=ROLLER, friction=0.5)
+
+
+def _static_indentation_3d(st: SteadyRolling, sinkage: float) -> tuple[PlasticityProblem, RigidWheelContact]:
+    """The transient solver's static indentation on the steady solve's mesh: the roller pressed to
+    ``sinkage`` (m) by RigidWheelContact on a PlasticityProblem with the steady solve's boundary
+    conditions, its last column of cells held at the steady displacement."""
+    msh = st.mesh
+    x_tie = np.unique(msh.geometry.x[:, 0])[1]
+    pb = PlasticityProblem(msh, st.material, volumetric_strain="pointwise")
+    held = fem.locate_dofs_geometrical(pb.V, lambda p: (p[0] <= x_tie + 1e-9) | np.isclose(p[0], st.x_in)
+                                       | np.isclose(p[2], st.base))
+    u_held = fem.Function(pb.V)
+    u_held.x.array[:] = st.u.x.array
+    side = msh.geometry.x[:, 1].max()
+    lateral = fem.locate_dofs_geometrical((pb.V.sub(1), pb.V.sub(1).collapse()[0]),
+                                          lambda p: np.isclose(p[1], 0.0) | np.isclose(p[1], side))[0]
+    pb.bcs = [fem.dirichletbc(u_held, held), fem.dirichletbc(PETSc.ScalarType(0.0), lateral, pb.V.sub(1))]
+    top = np.sort(dmesh.locate_entities_boundary(msh, 2, lambda p: np.isclose(p[2], 0.0)))
+    contact = RigidWheelContact(pb, ROLLER, dmesh.meshtags(msh, 2, top, np.ones(len(top), np.int32)), (1,),
+                                E=st.material.E, h=WINDOW_3D.cell_size, quadrature_degree=12,
+                                centre=np.array([0.0, 0.0, ROLLER.diameter / 2 - sinkage]))
+    assert pb.solve_increment().converged
+    return pb, contact
+
+
+@pytest.mark.serial
+def test_3d_elastic_steady_rolling_is_static_indentation():
+    """Without plasticity the frame does not matter in 3D either: the frictionless roller held at
+    10 mm carries the force (whole wheel: twice the half window's) of a static indentation on the
+    same hexahedra by the transient solver's contact, with the same displacement."""
+    st = SteadyRolling(rolling_window_mesh(MPI.COMM_SELF, WINDOW_3D), ELASTIC_3D, wheel=ROLLER)
+    res = st.solve_sinkage(0.01)
+    assert res.newton_iterations <= 6 and res.max_accumulated_plastic_strain == 0.0
+    pb, contact = _static_indentation_3d(st, 0.01)
+    assert res.vertical_force == pytest.approx(2 * contact.forces().vertical, rel=1e-6)
+    assert np.abs(pb.u.x.array - st.u.x.array).max() <= 1e-6 * np.abs(st.u.x.array).max()
+    # elastic: nothing resists the rolling but the window's asymmetry about the load (measured 1e-4)
+    assert abs(res.towing_force) < 1e-3 * res.vertical_force
+
+
+@pytest.mark.serial
+@pytest.mark.slow
+def test_3d_towing_force_of_the_roller_balances_the_window():
+    """Clay (von Mises, c = 115 kPa) under the frictionless roller held at 2.5 mm, gravity with its
+    geostatic stress: the soil flows plastically, the towing force from
+    the contact is positive and equals the window's horizontal balance (outflow traction, inflow
+    and base reactions: the outflow condition and the rollers in 3D), and the roller carries less
+    than on the elastic soil."""
+    msh = rolling_window_mesh(MPI.COMM_SELF, WINDOW_3D)
+    st = SteadyRolling(msh, CLAY_3D, wheel=ROLLER, unit_weight=20e3)
+    res = st.solve_sinkage(0.0025)
+    assert res.max_accumulated_plastic_strain > 0.01 and res.towing_force > 0.01 * res.vertical_force
+    assert st.horizontal_balance().towing_force == pytest.approx(res.towing_force, rel=1e-4)
+    elastic = SteadyRolling(msh, ELASTIC_3D, wheel=ROLLER, unit_weight=20e3).solve_sinkage(0.0025)
+    assert res.vertical_force < 0.9 * elastic.vertical_force
