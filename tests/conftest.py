@@ -64,8 +64,9 @@ def _runs_in_parallel(item) -> bool:
 def pytest_collection_modifyitems(config, items):
     """Under mpirun keep only the tests that take the communicator (:data:`COMMUNICATOR_FIXTURES`):
     the others (return maps, parsers, the analytic model, ...) cannot depend on the partition and
-    ran in the serial pass; nor do the ``verification`` tests run there (:func:`_runs_in_parallel`).  Then share the long tests (measured in durations.json; a ``slow`` test
-    not in it counts as a minute) out among pytest-xdist's workers.  xdist 3.1 first hands each
+    ran in the serial pass; nor do the ``verification`` tests run there (:func:`_runs_in_parallel`).
+    Then share the long tests (measured in durations.json; a ``slow`` test not in it counts as a
+    minute) out among pytest-xdist's workers.  xdist 3.1 first hands each
     worker a block of consecutive tests, a quarter of its share; the long tests are dealt to those
     blocks, longest first to the least loaded, so no worker ends on a queue of them while another
     idles.  The other tests keep their file order."""
