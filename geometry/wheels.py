@@ -53,21 +53,43 @@ class CylinderWheel:
         if not 0 <= self.fillet <= min(self.diameter, self.width) / 2:
             raise ValueError(f"fillet must be in [0, min(diameter, width)/2], got {self.fillet}")
 
-    def signed_distance(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Signed distance (m, negative inside) of (N,3) wheel-frame points to the surface, and the
-        outward unit normal (N,3) of the nearest surface point (the distance gradient)."""
+    def _meridian_distance(self, points: np.ndarray):
+        """In the meridian plane (rho, |y|), the rounded rectangle |rho| <= R, |y| <= b/2 with
+        corners rounded by the fillet: rho, y, e_rho, the offsets (q_rho, q_y) from the fillets'
+        centres, the length beyond them and the meridian normal (n_rho, n_y >= 0)."""
         rho, y, e_rho = _meridian(points)
         f = self.fillet
-        # rounded rectangle |rho| <= R, |y| <= b/2 in the meridian plane, corners rounded by f
         q_rho = rho - (self.diameter / 2 - f)
         q_y = np.abs(y) - (self.width / 2 - f)
         out_rho, out_y = np.maximum(q_rho, 0.0), np.maximum(q_y, 0.0)
         out_len = np.hypot(out_rho, out_y)
         outside = out_len > 0
-        dist = out_len + np.minimum(np.maximum(q_rho, q_y), 0.0) - f
-        n_rho = np.where(outside, out_rho / np.where(outside, out_len, 1.0), (q_rho >= q_y).astype(float))
-        n_y = np.where(outside, out_y / np.where(outside, out_len, 1.0), (q_rho < q_y).astype(float))
+        safe = np.where(outside, out_len, 1.0)
+        n_rho = np.where(outside, out_rho / safe, (q_rho >= q_y).astype(float))
+        n_y = np.where(outside, out_y / safe, (q_rho < q_y).astype(float))
+        return rho, y, e_rho, q_rho, q_y, out_len, n_rho, n_y
+
+    def signed_distance(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Signed distance (m, negative inside) of (N,3) wheel-frame points to the surface, and the
+        outward unit normal (N,3) of the nearest surface point (the distance gradient)."""
+        rho, y, e_rho, q_rho, q_y, out_len, n_rho, n_y = self._meridian_distance(points)
+        dist = out_len + np.minimum(np.maximum(q_rho, q_y), 0.0) - self.fillet
         return dist, _to_3d(n_rho, n_y * np.sign(y + (y == 0)), e_rho)
+
+    def distance_hessian(self, points: np.ndarray) -> np.ndarray:
+        """(N,3,3) second derivative of :meth:`signed_distance` (1/m): the derivative of the
+        normal with respect to the point (the wheel surface's curvature, extended off it)."""
+        rho, y, e_rho, q_rho, q_y, out_len, n_rho, n_y = self._meridian_distance(points)
+        e_y = np.broadcast_to([0.0, 1.0, 0.0], e_rho.shape)
+        e_theta = np.stack([e_rho[:, 2], np.zeros_like(rho), -e_rho[:, 0]], axis=1)
+        # around the axle: the radial normal turns with the point (curvature n_rho / rho)
+        H = (n_rho / np.where(rho > 0, rho, np.inf))[:, None, None] * np.einsum("ni,nj->nij", e_theta, e_theta)
+        # in the meridian plane: beyond a fillet's centre in both directions, its circle
+        corner = (q_rho > 0) & (q_y > 0)
+        n_m = n_rho[:, None] * e_rho + (n_y * np.sign(y + (y == 0)))[:, None] * e_y
+        m = np.einsum("ni,nj->nij", e_rho, e_rho) + np.einsum("ni,nj->nij", e_y, e_y)
+        fillet = m - np.einsum("ni,nj->nij", n_m, n_m)
+        return H + np.where(corner, 1.0 / np.where(corner, out_len, 1.0), 0.0)[:, None, None] * fillet
 
     def surface_area(self) -> float:
         """Closed-form area of the wheel surface, m^2 (Pappus: profile length x centroid path)."""

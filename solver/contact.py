@@ -72,6 +72,14 @@ class Circle:
         return r - self.diameter / 2, n
 
 
+    def distance_hessian(self, points: np.ndarray) -> np.ndarray:
+        """(N,2,2) second derivative of :meth:`signed_distance` (1/m): ``(I - n n) / r``."""
+        p = np.asarray(points, dtype=float).reshape(-1, 2)
+        r = np.linalg.norm(p, axis=1)
+        _, n = self.signed_distance(p)
+        return (np.eye(2) - np.einsum("ni,nj->nij", n, n)) / np.where(r > 0, r, np.inf)[:, None, None]
+
+
 def _pos(a):
     return ufl.max_value(a, 0.0)
 

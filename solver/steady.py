@@ -1,6 +1,6 @@
 """Steady rolling in the load's frame (the stationary method): a Hertz line pressure or a rigid
 cylinder (penalty contact, optionally Coulomb friction) moving over an elastoplastic soil in plane
-strain, or a rigid cylindrical wheel (frictionless) over a 3D half window, solved directly for the
+strain, or a rigid cylindrical wheel (as well) over a 3D half window, solved directly for the
 state that travels with the load.
 
 The load is fixed at x = 0 on the surface (y = 0 in plane strain, z = 0 in 3D, where y runs
@@ -16,8 +16,9 @@ the result of marching the return map along each streamline from the inflow (a *
 
 (the soil ahead is the strain's reference), vectorised over the streamlines.  Equilibrium
 ``R(u) = int sigma(u) : eps(v) - int t_out . v - loads = 0`` is solved by Newton-Krylov: GMRES,
-right-preconditioned by the LU of the elastic stiffness (factored once), on the exact Jacobian
-action computed by the tangent-linear sweep::
+right-preconditioned by the LU of the return map's local tangent (plus the contact's stiffness,
+factored at each Newton iteration), on the exact Jacobian action computed by the tangent-linear
+sweep::
 
     d sigma_i = C_i (D^-1 d sigma_{i-1} + d eps_i - d eps_{i-1})
 
@@ -55,14 +56,15 @@ from .contact import DEFAULT_PENALTY, Circle, ufl_signed_distance
 from .materials import admissible_k0
 from .problem import mandel_strain
 from .return_map import elastic_stiffness, return_map
+from .steady_friction import SurfaceFriction, SurfaceRows
 
 __all__ = ["RollingWindow", "rolling_window_mesh", "NewtonKrylovControl", "StreamlineState",
            "SteadyRollingResult", "HorizontalBalance", "SteadyRolling", "NoSteadyState", "DEFAULT_STEADY_OPTIONS"]
 
 log = get_logger("solver")
 
-#: GMRES right-preconditioned by the LU of the elastic stiffness (right: the Krylov test then
-#: measures the true residual, which the Newton iteration's own test uses)
+#: GMRES right-preconditioned by an LU (right: the Krylov test then measures the true residual,
+#: which the Newton iteration's own test uses)
 DEFAULT_STEADY_OPTIONS = {
     "ksp_type": "gmres",
     "ksp_pc_side": "right",
@@ -312,8 +314,9 @@ class SteadyRolling:
 
     Plane strain (a quadrilateral mesh): ``wheel`` is a :class:`~rollsim.solver.contact.Circle`,
     forces are per unit length (N/m).  3D (a hexahedral half window, y >= 0): ``wheel`` is a
-    ``CylinderWheel`` (axle along y, centred on y = 0), frictionless, no Hertz pressure; forces are
-    the whole wheel's (N: twice the half window's).
+    ``CylinderWheel`` (axle along y, centred on y = 0), no Hertz pressure; forces are the whole
+    wheel's (N: twice the half window's).  ``friction``: the Coulomb coefficient
+    (:mod:`rollsim.solver.steady_friction`).
 
     The cylinder presses on the surface through the penalty law of
     :class:`~rollsim.solver.contact.RigidWheelContact`: ``p_N = kappa <-g>_+`` on the gap ``g``
@@ -325,14 +328,15 @@ class SteadyRolling:
     :meth:`PlasticityProblem.set_geostatic_stress`) as the inflow state.  ``degree``: displacement
     (Lagrange); ``quadrature_degree``: of the tensor Gauss rule (default ``2 * degree``: full
     integration).  ``petsc_options`` override :data:`DEFAULT_STEADY_OPTIONS` under
-    ``options_prefix``.
+    ``options_prefix``; ``preconditioner``: ``"tangent"`` (the LU of the local consistent tangent,
+    refactored at each Newton iteration) or ``"elastic"`` (of the elastic stiffness).
     """
 
     def __init__(self, mesh, material, half_width: float | None = None, *, wheel: Circle | None = None,
                  penalty: float = DEFAULT_PENALTY, friction: float = 0.0, degree: int = 2,
                  quadrature_degree: int | None = None, unit_weight: float = 0.0, K0: float | None = None,
                  control: NewtonKrylovControl | None = None, petsc_options: dict | None = None,
-                 options_prefix: str = "rollsim_steady_"):
+                 options_prefix: str = "rollsim_steady_", preconditioner: str = "tangent"):
         self.comm = mesh.comm
         if self.comm.size > 1:
             raise NotImplementedError(
@@ -359,9 +363,8 @@ class SteadyRolling:
             raise ValueError(f"friction must be a Coulomb coefficient >= 0, got {friction!r}")
         if friction and wheel is None:
             raise ValueError("friction needs a rigid wheel (the Hertz pressure is frictionless)")
-        if friction and gdim == 3:
-            raise NotImplementedError("friction in 3D steady rolling is not available: roll frictionless "
-                                      "(friction = 0) or in plane strain")
+        if preconditioner not in ("tangent", "elastic"):
+            raise ValueError(f"preconditioner must be 'tangent' or 'elastic', got {preconditioner!r}")
         if not (math.isfinite(unit_weight) and unit_weight >= 0):
             raise ValueError(f"unit_weight must be >= 0 (N/m^3), got {unit_weight!r}")
         self.mesh, self.material, self.wheel = mesh, material, wheel
@@ -467,16 +470,22 @@ class SteadyRolling:
         K.assemble()
         self._b = compat.create_vector(self._F)
         self._tie = self._rear_tie()
-        self._elastic_matrix = self._reduced_matrix(K)
-        if wheel is None:
+        self._elastic_matrix = self._reduced_matrix(K)[0]
+        self.preconditioner = preconditioner
+        self._tangent_form = None
+        if preconditioner == "tangent":
+            nc = self.ncomp
+            self._tangent_fn = fem.Function(compat.quadrature_space(mesh, self.qdeg, (nc * nc,)))
+            Ct = ufl.as_matrix([[self._tangent_fn[i * nc + j] for j in range(nc)] for i in range(nc)])
+            self._tangent_form = fem.form(ufl.inner(ufl.dot(Ct, mandel_strain(w, gdim)), eps_v) * dx)
+        if wheel is None and self._tangent_form is None:     # the elastic stiffness is all it needs
             K.destroy()
             K = None
         self._elastic_full = K               # under a wheel, the contact's stiffness is added to it
+        self._preconditioner_full = None if K is None else K.duplicate(copy=True)
         self._full = self._b.duplicate()
-        #: the friction's surface streamline (plane strain)
-        self._friction_line = wheel is not None and gdim == 2
-        if self._friction_line:
-            self._surface_stations()
+        #: the friction along the surface nodes' rows (a wheel with a friction coefficient)
+        self._friction = self._surface_friction() if wheel is not None and self.friction > 0 else None
 
         self.inflow = self._geostatic_state(unit_weight, K0)
         self.petsc_options = {**DEFAULT_STEADY_OPTIONS, **(petsc_options or {})}
@@ -485,7 +494,7 @@ class SteadyRolling:
         self._fields: tuple | None = None
         self._counts = {"sweeps": 0, "krylov": 0}
         self._contact_matrix: PETSc.Mat | None = None
-        self._preconditioner_matrix: PETSc.Mat | None = None
+        self._preconditioner_matrix: tuple[PETSc.Mat, PETSc.Mat] | None = None   # (reduced, product)
 
     # ------------------------------------------------------------------ set-up
     def _streamlines(self) -> tuple[np.ndarray, np.ndarray]:
@@ -572,90 +581,50 @@ class SteadyRolling:
         P.setValuesCSR(np.arange(n + 1, dtype=PETSc.IntType), cols.astype(PETSc.IntType), np.ones(n))
         P.assemble()
         self._slaves = slaves
+        diagonal = np.zeros(n)
+        diagonal[slaves] = 1.0
+        self._tied_ones = PETSc.Mat().createAIJ(((n, n), (n, n)), nnz=1, comm=self.comm)
+        self._tied_ones.setValuesCSR(np.arange(n + 1, dtype=PETSc.IntType), np.arange(n, dtype=PETSc.IntType), diagonal)
+        self._tied_ones.assemble()
         return P
 
-    def _reduced_matrix(self, K: PETSc.Mat) -> PETSc.Mat:
-        """``P^T K P`` with ones on the tied dofs' diagonal."""
-        Kr = K.PtAP(self._tie)
-        Kr.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, False)
-        for dof in self._slaves:
-            Kr.setValue(dof, dof, 1.0)
-        Kr.assemble()
-        return Kr
+    def _reduced_matrix(self, K: PETSc.Mat, out: tuple[PETSc.Mat, PETSc.Mat] | None = None
+                        ) -> tuple[PETSc.Mat, PETSc.Mat]:
+        """``P^T K P`` with ones on the tied dofs' diagonal, and the product ``P^T K P`` it came
+        from; ``out`` (an earlier result for a matrix of ``K``'s pattern) is refilled in place."""
+        if out is not None:
+            reduced, product = out
+            K.PtAP(self._tie, result=product)
+            reduced.zeroEntries()
+            reduced.axpy(1.0, product, structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
+            reduced.axpy(1.0, self._tied_ones, structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
+            return reduced, product
+        product = K.PtAP(self._tie)
+        reduced = product.duplicate(copy=True)
+        reduced.axpy(1.0, self._tied_ones, structure=PETSc.Mat.Structure.DIFFERENT_NONZERO_PATTERN)
+        return reduced, product
 
-    def _surface_stations(self) -> None:
-        """The surface streamline of the friction: the surface nodes from the inflow to the outflow
-        (:attr:`_surface_nodes`, abscissae :attr:`_surface_x`, m) with their Simpson weights
-        (:attr:`_surface_weights`, m: the nodal rule of quadratic Lagrange elements)."""
-        X = self.V.tabulate_dof_coordinates()
-        n_nodes = self.V.dofmap.index_map.size_local
-        top = np.flatnonzero(np.abs(X[:n_nodes, 1] - self.surface) < 1e-9 * (self.x_in - self.x_out))
-        top = top[np.argsort(-X[top, 0])]
-        if len(top) % 2 != 1:
-            raise ValueError("friction needs quadratic Lagrange elements (vertex and mid-side surface nodes)")
-        x = X[top, 0]
-        h = x[:-2:2] - x[2::2]
-        w = np.zeros(len(top))
-        w[:-2:2] += h / 6.0
-        w[1::2] += 4.0 * h / 6.0
-        w[2::2] += h / 6.0
-        self._surface_nodes, self._surface_x, self._surface_weights = top, x, w
-        fixed = np.isin(top, self._fixed // self.V.dofmap.index_map_bs)
-        self._surface_free = ~fixed
-        self._friction_state = None
+    def _surface_friction(self) -> SurfaceFriction:
+        """The friction on the surface nodes' rows; :attr:`_surface_free`: which of their dofs
+        ((rows, stations, gdim)) are not fixed."""
+        X = self.V.tabulate_dof_coordinates()[: self.V.dofmap.index_map.size_local, : self.gdim]
+        rows = SurfaceRows.of(X, self.surface, 1e-9 * (self.x_in - self.x_out))
+        dofs = rows.nodes[..., None] * self.V.dofmap.index_map_bs + np.arange(self.gdim)
+        self._surface_free = ~np.isin(dofs, self._fixed)
+        return SurfaceFriction(rows, self.wheel, self.friction, self.kappa)
 
-    def _friction_sweep(self) -> np.ndarray:
-        """March penalty-regularised Coulomb friction along the surface streamline at the current
-        displacement; the nodal forces on the soil (N/m, (nodes, 2)).  The tangential traction on
-        the soil ``t`` (Pa, along ``tau = e_z x n``, ``n`` the wheel's outward normal) takes the
-        trial ``t_prev - k_T dg_T`` of the slip increment of the soil against the wheel's surface
-        between consecutive stations, ``dg = du + dx (1 + xi y_rel / R) e_x - dx xi x_rel / R e_y``
-        (``dx < 0`` the stations' step, ``(x_rel, y_rel)`` the point from the axle), then returns
-        to ``|t| <= mu p_N``; ``k_T = kappa``."""
-        U = self.u.x.array.reshape(-1, 2)[self._surface_nodes]
-        P = np.stack([self._surface_x + U[:, 0], self.surface + U[:, 1] - float(self.axle_height.value)], axis=1)
-        r = np.linalg.norm(P, axis=1)
-        n = P / r[:, None]
-        tau = np.stack([-n[:, 1], n[:, 0]], axis=1)
-        pN = self.kappa * np.maximum(self.wheel.diameter / 2 - r, 0.0)
-        dx = np.diff(self._surface_x, prepend=self._surface_x[0])
-        dU = np.diff(U, axis=0, prepend=U[:1])
-        R = self.wheel.diameter / 2
-        slip = dU + dx[:, None] * (np.array([1.0, 0.0]) - self.spin / R * np.stack([-P[:, 1], P[:, 0]], axis=1))
-        s = np.einsum("ji,ji->j", slip, tau)
-        t, stick = np.zeros(len(r)), np.zeros(len(r), dtype=bool)
-        prev = 0.0
-        for j in range(len(r)):
-            trial = prev - self.kappa * s[j]
-            stick[j] = abs(trial) <= self.friction * pN[j]
-            prev = t[j] = trial if stick[j] else math.copysign(self.friction * pN[j], trial)
-        self._friction_state = (P, r, n, tau, dx, slip, t, stick)
-        return (self._surface_weights * t)[:, None] * tau
+    def _surface_displacement(self, u: np.ndarray) -> np.ndarray:
+        return u.reshape(-1, self.gdim)[self._friction.rows.nodes]
 
-    def _friction_tangent(self, dU: np.ndarray) -> np.ndarray:
-        """The derivative of :meth:`_friction_sweep`'s nodal forces (N/m) for the surface nodes'
-        displacement increment ``dU`` (m, (nodes, 2)), at the state of its last call."""
-        P, r, n, tau, dx, slip, t, stick = self._friction_state
-        R = self.wheel.diameter / 2
-        dr = np.einsum("ji,ji->j", n, dU)
-        dn = (dU - n * dr[:, None]) / r[:, None]
-        dtau = np.stack([-dn[:, 1], dn[:, 0]], axis=1)
-        dpN = np.where(r < R, -self.kappa * dr, 0.0)
-        turn = np.stack([-dU[:, 1], dU[:, 0]], axis=1)                         # e_z x dU
-        dslip = np.diff(dU, axis=0, prepend=dU[:1]) - (self.spin / R * dx)[:, None] * turn
-        ds = np.einsum("ji,ji->j", dslip, tau) + np.einsum("ji,ji->j", slip, dtau)
-        dt = np.zeros(len(r))
-        prev = 0.0
-        for j in range(len(r)):
-            prev = dt[j] = prev - self.kappa * ds[j] if stick[j] else self.friction * dpN[j] * np.sign(t[j])
-        w = self._surface_weights[:, None]
-        return w * (dt[:, None] * tau + t[:, None] * dtau)
+    def _friction_forces(self) -> np.ndarray:
+        """The friction's nodal forces on the soil (N or N/m, (rows, stations, gdim)) at the current displacement."""
+        return self._friction.sweep(self._surface_displacement(self.u.x.array), float(self.axle_height.value),
+                                    self.surface, self.spin)
 
     def _add_friction(self, b: PETSc.Vec, forces: np.ndarray) -> None:
-        """Subtract the friction's nodal forces on the soil from the residual ``b`` (free nodes)."""
-        nodes = self._surface_nodes[self._surface_free]
+        """Subtract the friction's nodal forces on the soil from the residual ``b`` (free dofs)."""
         with b.localForm() as local:
-            local.array.reshape(-1, 2)[nodes] -= forces[self._surface_free]
+            local.array.reshape(-1, self.gdim)[self._friction.rows.nodes] -= np.where(self._surface_free, forces, 0.0)
 
     def _geostatic_state(self, unit_weight: float, K0: float | None) -> StreamlineState:
         rows, nc = len(self.streamline_depths), self.ncomp
@@ -750,26 +719,37 @@ class SteadyRolling:
         """The residual (N/m) of the current displacement, ``P^T R``: sweep, then assemble."""
         self._sweep(inflow)
         self._assemble(self._F, self._full)
-        if self._friction_line:
-            self._add_friction(self._full, self._friction_sweep())
+        if self._friction is not None:
+            self._add_friction(self._full, self._friction_forces())
         self._tie.multTranspose(self._full, self._b)
         return self._b
 
-    def _update_contact(self) -> None:
+    def _update_preconditioner(self) -> None:
         """The contact's stiffness at the current displacement, in the Jacobian action and the
-        preconditioner (the elastic stiffness plus it, factored again)."""
+        preconditioner; the preconditioner (the elastic stiffness, or the return map's local
+        tangent, plus the contact's) factored again."""
+        if self._contact_stiffness is not None:
+            if self._contact_matrix is not None:
+                self._contact_matrix.destroy()
+            # zero on the fixed dofs' diagonal: the elastic stiffness has its ones there
+            self._contact_matrix = fpetsc.assemble_matrix(self._contact_stiffness, bcs=self.bcs, diagonal=0.0)
+            self._contact_matrix.assemble()
+        M = self._preconditioner_full
+        if self._tangent_form is not None:
+            flat = np.empty((self.n_qp, self.ncomp * self.ncomp))
+            flat[self._order] = self._tangent.reshape(*self._tangent.shape[:2], -1)
+            self._tangent_fn.x.array[:] = flat.reshape(-1)
+            M.zeroEntries()
+            fpetsc.assemble_matrix(M, self._tangent_form, bcs=self.bcs)
+            M.assemble()
+        else:
+            self._elastic_full.copy(M, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
         if self._contact_matrix is not None:
-            self._contact_matrix.destroy()
-        # zero on the fixed dofs' diagonal: the elastic stiffness has its ones there
-        self._contact_matrix = fpetsc.assemble_matrix(self._contact_stiffness, bcs=self.bcs, diagonal=0.0)
-        self._contact_matrix.assemble()
-        M = self._elastic_full.copy()
-        M.axpy(1.0, self._contact_matrix, structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
-        self._preconditioner_matrix, previous = self._reduced_matrix(M), self._preconditioner_matrix
-        M.destroy()
-        self._ksp.setOperators(self._jacobian, self._preconditioner_matrix)
-        if previous is not None:
-            previous.destroy()
+            M.axpy(1.0, self._contact_matrix, structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
+        first = self._preconditioner_matrix is None
+        self._preconditioner_matrix = self._reduced_matrix(M, self._preconditioner_matrix)
+        if first:
+            self._ksp.setOperators(self._jacobian, self._preconditioner_matrix[0])
 
     def jacobian_action(self, x: PETSc.Vec, y: PETSc.Vec) -> None:
         """``y = P^T J P x`` at the state of the last residual (identity on the fixed and tied dofs)."""
@@ -780,8 +760,8 @@ class SteadyRolling:
         self._assemble(self._Jv, self._full)
         if self._contact_matrix is not None:
             self._contact_matrix.multAdd(du, self._full, self._full)
-        if self._friction_line:
-            self._add_friction(self._full, self._friction_tangent(self._du.x.array.reshape(-1, 2)[self._surface_nodes]))
+        if self._friction is not None:
+            self._add_friction(self._full, self._friction.tangent(self._surface_displacement(self._du.x.array)))
         self._tie.multTranspose(self._full, y)
         keep = np.concatenate([self._fixed, self._slaves])
         y.array[keep] = x.array_r[keep]
@@ -836,19 +816,20 @@ class SteadyRolling:
         result.towing_force = self.symmetry * float(fem.assemble_scalar(self._towing_force))
         result.spin = self.spin
         result.axle_torque = 0.0          # frictionless: the normal pressure passes through the axle
-        if self._friction_line:
-            forces = self._friction_sweep()                     # on the soil, at the converged state
-            P = self._friction_state[0]
-            result.vertical_force -= float(forces[:, 1].sum())
-            result.towing_force += float(forces[:, 0].sum())
-            result.axle_torque = -float(np.sum(P[:, 0] * forces[:, 1] - P[:, 1] * forces[:, 0]))
+        if self._friction is not None:
+            forces = self._friction_forces()                     # on the soil, at the converged state
+            P = self._friction.point
+            result.vertical_force -= self.symmetry * float(forces[..., -1].sum())
+            result.towing_force += self.symmetry * float(forces[..., 0].sum())
+            result.axle_torque = -self.symmetry * float(np.sum(P[..., 0] * forces[..., -1] - P[..., -1] * forces[..., 0]))
         return result
 
     def solve_free_rolling(self, sinkage: float, inflow: StreamlineState | None = None, *,
                            torque_rtol: float = 1e-6, max_iterations: int = 20) -> SteadyRollingResult:
         """The steady state of the towed (free-rolling) wheel at ``sinkage`` (m): the spin
-        :attr:`spin` found by a secant iteration on zero axle torque, each solve from the last
-        (continuation), to ``|torque| <= torque_rtol R Q_V``."""
+        :attr:`spin` that zeroes the axle torque, to ``|torque| <= torque_rtol R Q_V``, each solve
+        from the last (continuation).  Secant steps, at least doubling while the torque keeps its
+        sign, until the root is bracketed; then regula falsi (Illinois)."""
         if not (isinstance(max_iterations, int) and max_iterations >= 1):
             raise ValueError(f"max_iterations must be an integer >= 1, got {max_iterations!r}")
         if not 0 < torque_rtol < 1:
@@ -856,14 +837,25 @@ class SteadyRolling:
         R = self.wheel.diameter / 2
         result = self.solve_sinkage(sinkage, inflow)
         last, step = None, 1e-3
+        bracket: dict[bool, tuple[float, float]] = {}      # (spin, torque) on each side of zero torque
+        kept = None                                         # the end the last regula falsi step kept
         for _ in range(max_iterations):
-            if abs(result.axle_torque) <= torque_rtol * R * abs(result.vertical_force):
+            torque = result.axle_torque
+            if abs(torque) <= torque_rtol * R * abs(result.vertical_force):
                 return result
-            if last is not None:
-                slope = (result.axle_torque - last.axle_torque) / (result.spin - last.spin)
-                if slope == 0:
-                    break
-                step = -result.axle_torque / slope
+            side = torque > 0
+            bracket[side] = (result.spin, torque)
+            if len(bracket) == 2:
+                other = not side
+                if kept == other:                           # Illinois: an end kept twice weighs half
+                    bracket[other] = (bracket[other][0], 0.5 * bracket[other][1])
+                kept = other
+                (s1, t1), (s0, t0) = bracket[True], bracket[False]
+                step = (s0 * t1 - s1 * t0) / (t1 - t0) - result.spin
+            elif last is not None:
+                slope = (torque - last.axle_torque) / (result.spin - last.spin)
+                secant = -torque / slope if slope != 0 else math.copysign(2 * abs(step), -torque)
+                step = math.copysign(max(abs(secant), 2 * abs(step)), secant)
             u = self.u.x.array.copy()
             while True:
                 self.spin = result.spin + step
@@ -954,8 +946,8 @@ class SteadyRolling:
             if it == ctl.max_iterations:
                 self._fail(load_text, f"Newton-Krylov did not converge in {it} iterations (residual "
                                       f"{history[-1]:.2e} of the load's, wanted {ctl.rtol:.0e})")
-            if contact:
-                self._update_contact()
+            if contact or self._tangent_form is not None:
+                self._update_preconditioner()
             rhs = b.copy()
             rhs.scale(-1.0)
             self._ksp.setTolerances(atol=0.1 * ctl.rtol * scale)

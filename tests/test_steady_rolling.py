@@ -22,6 +22,7 @@ from rollsim.solver.problem import PlasticityProblem, mandel_strain
 from rollsim.solver.return_map import elastic_stiffness, invariants
 from rollsim.solver.stepping import StepControl, solve_load_path
 from rollsim.solver.steady import (NoSteadyState, RollingWindow, SteadyRolling, rolling_window_mesh)
+from rollsim.solver.steady_friction import SurfaceFriction, SurfaceRows
 
 K = 1.0                                  # shear yield stress k (Pa)
 SOIL = VonMises(E=1000.0, nu=0.3, yield_stress=math.sqrt(3.0) * K)
@@ -499,8 +500,6 @@ def test_3d_window_is_a_structured_half_block_of_hexahedra():
         replace(WINDOW_3D, across=0.3)
     with pytest.raises(ValueError, match="both"):
         RollingWindow(half_width=0.15, ahead=0.6, behind=0.9, depth=0.6, across=0.6)
-    with pytest.raises(NotImplementedError, match="friction"):
-        SteadyRolling(msh, ELASTIC_3D, wheel=ROLLER, friction=0.5)
 
 
 def _static_indentation_3d(st: SteadyRolling, sinkage: float) -> tuple[PlasticityProblem, RigidWheelContact]:
@@ -556,3 +555,85 @@ def test_3d_towing_force_of_the_roller_balances_the_window():
     assert st.horizontal_balance().towing_force == pytest.approx(res.towing_force, rel=1e-4)
     elastic = SteadyRolling(msh, ELASTIC_3D, wheel=ROLLER, unit_weight=20e3).solve_sinkage(0.0025)
     assert res.vertical_force < 0.9 * elastic.vertical_force
+
+
+@pytest.mark.parametrize("gdim", [2, 3])
+def test_friction_tangent_is_the_derivative_of_its_sweep(gdim):
+    """The friction's tangent (sticking and sliding stations, the wheel's curvature; in 3D the
+    fillet's) equals central differences of its sweep, and the nodal weights integrate the
+    surface."""
+    rng = np.random.default_rng(gdim)
+    xs = np.linspace(0.6, -0.9, 41)
+    if gdim == 3:
+        wheel = CylinderWheel(1.524, 0.4572, 0.05)
+        X = np.array([[x, y, 0.0] for y in np.linspace(0.0, 0.3, 13) for x in xs])
+    else:
+        wheel = Circle(1.524)
+        X = np.column_stack([xs, np.zeros_like(xs)])
+    rows = SurfaceRows.of(X, 0.0, 1e-9)
+    assert rows.weights.sum() == pytest.approx(1.5 * (0.3 if gdim == 3 else 1.0), rel=1e-12)
+    friction = SurfaceFriction(rows, wheel, 0.5, 1e8)
+    U = np.zeros(rows.nodes.shape + (gdim,))
+    U[..., -1] = -0.01 * np.exp(-(rows.x / 0.25) ** 2) + 1e-5 * rng.normal(size=U.shape[:-1])
+    U[..., 0] = 1e-4 * np.sin(rows.x * 7.0)
+    sweep = lambda V: friction.sweep(V, wheel.diameter / 2 - 0.015, 0.0, 0.99)
+    sweep(U)
+    stick, contact = friction._state["stick"].copy(), friction._state["contact"]
+    assert np.any(stick & contact) and np.any(~stick & contact)
+    if gdim == 3:                                                     # some on the fillet
+        assert np.any(contact[rows.across > wheel.width / 2 - wheel.fillet])
+    dU = rng.normal(size=U.shape)
+    exact = friction.tangent(dU)
+    h = 1e-9
+    forward, backward = sweep(U + h * dU), sweep(U - h * dU)
+    assert np.array_equal(friction._state["stick"], stick)          # no station changed its state
+    assert np.abs((forward - backward) / (2 * h) - exact).max() <= 1e-5 * np.abs(exact).max()
+
+
+def _slab_mesh(window: RollingWindow, width: float):
+    """The plane-strain ``window`` extruded one cell ``width`` (m) across, in y."""
+    nodes = [window.x_nodes(), np.array([0.0, width]), window.y_nodes()]
+    counts = [len(n) - 1 for n in nodes]
+    msh = dmesh.create_box(MPI.COMM_SELF, [np.zeros(3), np.array(counts, dtype=float)], counts,
+                           dmesh.CellType.hexahedron)
+    x = msh.geometry.x
+    for axis, n in enumerate(nodes):
+        x[:, axis] = np.interp(x[:, axis], np.arange(counts[axis] + 1), n)
+    return msh
+
+
+@pytest.mark.serial
+def test_3d_slab_under_a_wide_roller_is_plane_strain():
+    """A slab one cell across between rollers (u_y = 0 on both faces) under a roller wider than it
+    is plane strain: the 3D solve (hexahedra, 2D Coulomb friction, the cylinder's distance)
+    gives the forces per unit width of the plane-strain solve on the same cells: clay with
+    gravity, plastic, a wheel with mu = 0.5 slipping at xi = 0.98."""
+    window = RollingWindow(half_width=0.15, ahead=0.45, behind=0.6, depth=0.45, cells_per_half_width=2)
+    width = 0.1
+    solves = {}
+    for name, msh, wheel in (("plane", rolling_window_mesh(MPI.COMM_SELF, window), Circle(ROLLER.diameter)),
+                             ("slab", _slab_mesh(window, width), CylinderWheel(ROLLER.diameter, 1.0))):
+        st = SteadyRolling(msh, CLAY_3D, wheel=wheel, unit_weight=20e3, friction=0.5)
+        st.spin = 0.98
+        solves[name] = st.solve_sinkage(0.0025)
+    plane, slab = solves["plane"], solves["slab"]
+    assert plane.max_accumulated_plastic_strain > 0.01 and plane.axle_torque > 0.05 * plane.vertical_force
+    per_width = 1.0 / (2 * width)                 # the slab is half the wheel's width
+    for key in ("vertical_force", "towing_force", "axle_torque"):
+        assert getattr(slab, key) * per_width == pytest.approx(getattr(plane, key), rel=1e-7), key
+
+
+@pytest.mark.serial
+def test_3d_frictional_roller_rolls_free_on_elastic_soil():
+    """The Mn/DOT roller with mu = 0.8 on elastic soil at 2.5 mm: the contact's towing force
+    (pressure and friction) equals the window's horizontal balance; towed free (zero axle torque)
+    nothing resists it, while held at xi = 1 the friction does."""
+    st = SteadyRolling(rolling_window_mesh(MPI.COMM_SELF, WINDOW_3D), ELASTIC_3D, wheel=ROLLER, friction=0.8,
+                       unit_weight=20e3)
+    held = st.solve_sinkage(0.0025)
+    assert st.horizontal_balance().towing_force == pytest.approx(held.towing_force, rel=1e-6)
+    assert abs(held.towing_force) > 0.05 * held.vertical_force
+    free = st.solve_free_rolling(0.0025)
+    assert abs(free.axle_torque) <= 1e-6 * ROLLER.diameter / 2 * free.vertical_force
+    assert abs(free.towing_force) < 1e-3 * free.vertical_force and free.spin < 1.0
+    assert st.horizontal_balance().towing_force == pytest.approx(free.towing_force, abs=1e-6 * free.vertical_force)
