@@ -305,6 +305,39 @@ class HorizontalBalance:
         return self.outflow_axial - self.inflow_axial + self.base_shear
 
 
+def _check_arguments(mesh, half_width, wheel, penalty, friction, preconditioner, unit_weight) -> None:
+    """The arguments of :class:`SteadyRolling` that it refuses, with the reason."""
+    if mesh.comm.size > 1:
+        raise NotImplementedError(
+            f"steady rolling runs on one rank for now, the mesh's communicator has {mesh.comm.size}: "
+            "its streamlines would cross the cells of several ranks")
+    gdim = mesh.geometry.dim
+    cells = {2: "quadrilateral", 3: "hexahedron"}.get(gdim)
+    if compat.cell_name(mesh) != cells:
+        raise ValueError(f"steady rolling needs a structured mesh of {cells or 'quadrilateral or hexahedron'} "
+                         f"cells, got {compat.cell_name(mesh)} cells")
+    if (half_width is None) == (wheel is None):
+        raise ValueError("give exactly one load: the Hertz pressure's half_width or a rigid wheel")
+    if half_width is not None and gdim == 3:
+        raise ValueError("the Hertz line pressure is plane strain: roll a wheel over a 3D window")
+    if half_width is not None and not (math.isfinite(half_width) and half_width > 0):
+        raise ValueError(f"half_width must be a positive length (m), got {half_width!r}")
+    from rollsim.geometry import CylinderWheel
+    wheel_type = Circle if gdim == 2 else CylinderWheel
+    if wheel is not None and not isinstance(wheel, wheel_type):
+        raise TypeError(f"wheel must be a {wheel_type.__name__} in {gdim}D, got {type(wheel).__name__}")
+    if not (math.isfinite(penalty) and penalty > 0):
+        raise ValueError(f"penalty must be a positive factor, got {penalty!r}")
+    if not (math.isfinite(friction) and friction >= 0):
+        raise ValueError(f"friction must be a Coulomb coefficient >= 0, got {friction!r}")
+    if friction and wheel is None:
+        raise ValueError("friction needs a rigid wheel (the Hertz pressure is frictionless)")
+    if preconditioner not in ("tangent", "elastic"):
+        raise ValueError(f"preconditioner must be 'tangent' or 'elastic', got {preconditioner!r}")
+    if not (math.isfinite(unit_weight) and unit_weight >= 0):
+        raise ValueError(f"unit_weight must be >= 0 (N/m^3), got {unit_weight!r}")
+
+
 class SteadyRolling:
     """Steady rolling of a Hertz line pressure ``p(x) = p0 sqrt(1 - (x/half_width)^2)`` (Pa, m), or
     of a rigid cylinder ``wheel`` whose axle is held above x = 0 (:meth:`solve_sinkage`,
@@ -337,37 +370,10 @@ class SteadyRolling:
                  quadrature_degree: int | None = None, unit_weight: float = 0.0, K0: float | None = None,
                  control: NewtonKrylovControl | None = None, petsc_options: dict | None = None,
                  options_prefix: str = "rollsim_steady_", preconditioner: str = "tangent"):
+        _check_arguments(mesh, half_width, wheel, penalty, friction, preconditioner, unit_weight)
         self.comm = mesh.comm
-        if self.comm.size > 1:
-            raise NotImplementedError(
-                f"steady rolling runs on one rank for now, the mesh's communicator has {self.comm.size}: "
-                "its streamlines would cross the cells of several ranks")
-        gdim = mesh.geometry.dim
-        cells = {2: "quadrilateral", 3: "hexahedron"}.get(gdim)
-        if compat.cell_name(mesh) != cells:
-            raise ValueError(f"steady rolling needs a structured mesh of {cells or 'quadrilateral or hexahedron'} "
-                             f"cells, got {compat.cell_name(mesh)} cells")
-        if (half_width is None) == (wheel is None):
-            raise ValueError("give exactly one load: the Hertz pressure's half_width or a rigid wheel")
-        if half_width is not None and gdim == 3:
-            raise ValueError("the Hertz line pressure is plane strain: roll a wheel over a 3D window")
-        if half_width is not None and not (math.isfinite(half_width) and half_width > 0):
-            raise ValueError(f"half_width must be a positive length (m), got {half_width!r}")
-        from rollsim.geometry import CylinderWheel
-        wheel_type = Circle if gdim == 2 else CylinderWheel
-        if wheel is not None and not isinstance(wheel, wheel_type):
-            raise TypeError(f"wheel must be a {wheel_type.__name__} in {gdim}D, got {type(wheel).__name__}")
-        if not (math.isfinite(penalty) and penalty > 0):
-            raise ValueError(f"penalty must be a positive factor, got {penalty!r}")
-        if not (math.isfinite(friction) and friction >= 0):
-            raise ValueError(f"friction must be a Coulomb coefficient >= 0, got {friction!r}")
-        if friction and wheel is None:
-            raise ValueError("friction needs a rigid wheel (the Hertz pressure is frictionless)")
-        if preconditioner not in ("tangent", "elastic"):
-            raise ValueError(f"preconditioner must be 'tangent' or 'elastic', got {preconditioner!r}")
-        if not (math.isfinite(unit_weight) and unit_weight >= 0):
-            raise ValueError(f"unit_weight must be >= 0 (N/m^3), got {unit_weight!r}")
         self.mesh, self.material, self.wheel = mesh, material, wheel
+        gdim = mesh.geometry.dim
         self.gdim, self.ncomp = gdim, NCOMP[gdim]
         self._up = gdim - 1                        # the vertical axis
         #: the whole wheel's share of the modelled soil's forces (3D: a half window)
@@ -382,10 +388,27 @@ class SteadyRolling:
         self.qdeg = 2 * degree if quadrature_degree is None else quadrature_degree
         self.D = elastic_stiffness(material, self.ncomp)
         self._D_inv = np.linalg.inv(self.D)
-
         x = mesh.geometry.x
         self.x_in, self.x_out = float(x[:, 0].max()), float(x[:, 0].min())
         self.surface, self.base = float(x[:, self._up].max()), float(x[:, self._up].min())
+        self._init_spaces(degree)
+        ds = self._init_boundary()
+        K = self._init_forms(ds, degree, penalty, unit_weight)
+        self._init_preconditioner(K, preconditioner)
+        #: the friction along the surface nodes' rows (a wheel with a friction coefficient)
+        self._friction = self._surface_friction() if wheel is not None and self.friction > 0 else None
+        self.inflow = self._geostatic_state(unit_weight, K0)
+        self.petsc_options = {**DEFAULT_STEADY_OPTIONS, **(petsc_options or {})}
+        self.options_prefix = options_prefix
+        self._ksp = self._krylov_solver()
+        self._fields: tuple | None = None
+        self._counts = {"sweeps": 0, "krylov": 0}
+
+    # ------------------------------------------------------------------ set-up
+    def _init_spaces(self, degree: int) -> None:
+        """The displacement, the quadrature points and their streamlines, the stress and the rear
+        face's traction."""
+        mesh = self.mesh
         self.V = compat.vector_space(mesh, degree)
         self.u = fem.Function(self.V, name="displacement")
         self._du = fem.Function(self.V)
@@ -395,20 +418,22 @@ class SteadyRolling:
         self.n_qp = self.n_cells * self._n_points
         coords = compat.evaluate(compat.expression(ufl.SpatialCoordinate(mesh), points), mesh)
         #: coordinates of the quadrature points (m), in the quadrature spaces' order
-        self.quadrature_coordinates = coords.reshape(self.n_qp, gdim)
+        self.quadrature_coordinates = coords.reshape(self.n_qp, self.gdim)
         self._order, self.streamline_depths = self._streamlines()
-        self._strain_expr = compat.expression(mandel_strain(self.u, gdim), points)
-        self._dstrain_expr = compat.expression(mandel_strain(self._du, gdim), points)
-
+        self._strain_expr = compat.expression(mandel_strain(self.u, self.gdim), points)
+        self._dstrain_expr = compat.expression(mandel_strain(self._du, self.gdim), points)
         Qs = compat.quadrature_space(mesh, self.qdeg, (self.ncomp,))
         self._sigma, self._dsigma = fem.Function(Qs, name="stress"), fem.Function(Qs)
         self._traction_space = compat.vector_space(mesh, degree, "DQ")
         self._traction, self._dtraction = fem.Function(self._traction_space), fem.Function(self._traction_space)
         self._outflow_map()
 
+    def _init_boundary(self) -> ufl.Measure:
+        """The fixed inflow face and base, the rollers in 3D (:attr:`bcs`, :attr:`_fixed`); the
+        surface (tag 1) and rear face (tag 2) measure."""
+        mesh, gdim, up = self.mesh, self.gdim, self._up
         fdim = mesh.topology.dim - 1
         tol = 1e-9 * (self.x_in - self.x_out)
-        up = self._up
         front = dmesh.locate_entities_boundary(mesh, fdim, lambda p: np.abs(p[0] - self.x_in) < tol)
         base = dmesh.locate_entities_boundary(mesh, fdim, lambda p: np.abs(p[up] - self.base) < tol)
         top = dmesh.locate_entities_boundary(mesh, fdim, lambda p: np.abs(p[up] - self.surface) < tol)
@@ -422,7 +447,7 @@ class SteadyRolling:
         bs = self.V.dofmap.index_map_bs
         self._fixed = (fixed[:, None] * bs + np.arange(bs)).reshape(-1)     # unrolled dof indices
         if gdim == 3:                # rollers: the symmetry plane y = 0 and the side face
-            y_side = float(x[:, 1].max())
+            y_side = float(mesh.geometry.x[:, 1].max())
             sides = dmesh.locate_entities_boundary(
                 mesh, fdim, lambda p: (np.abs(p[1]) < tol) | (np.abs(p[1] - y_side) < tol))
             lateral = fem.locate_dofs_topological(self.V.sub(1), fdim, sides)
@@ -433,12 +458,16 @@ class SteadyRolling:
         facets = np.concatenate([top, rear])
         tags = np.concatenate([np.full(len(top), 1, np.int32), np.full(len(rear), 2, np.int32)])
         order = np.argsort(facets)
-        ds = ufl.Measure("ds", domain=mesh, subdomain_data=dmesh.meshtags(mesh, fdim, facets[order], tags[order]))
-        dx = ufl.Measure("dx", domain=mesh, metadata={"quadrature_degree": self.qdeg, "quadrature_scheme": "default"})
+        return ufl.Measure("ds", domain=mesh, subdomain_data=dmesh.meshtags(mesh, fdim, facets[order], tags[order]))
 
+    def _init_forms(self, ds: ufl.Measure, degree: int, penalty: float, unit_weight: float) -> PETSc.Mat:
+        """The residual, its Jacobian action and the load (a Hertz pressure or the wheel's contact,
+        gravity); returns the elastic stiffness matrix."""
+        mesh, gdim, up, wheel = self.mesh, self.gdim, self._up, self.wheel
+        dx = ufl.Measure("dx", domain=mesh, metadata={"quadrature_degree": self.qdeg, "quadrature_scheme": "default"})
         v, w = ufl.TestFunction(self.V), ufl.TrialFunction(self.V)
         X = ufl.SpatialCoordinate(mesh)
-        eps_v = mandel_strain(v, gdim)
+        self._eps_v, self._eps_w, self._dx = mandel_strain(v, gdim), mandel_strain(w, gdim), dx
         # the pressure's square-root ends and the contact's edge need more points than the displacement's degree
         ds_top = ds(1, metadata={"quadrature_degree": 4 * degree + 4})
         self._contact_stiffness = None
@@ -448,8 +477,8 @@ class SteadyRolling:
             load = pressure * v[up] * ds_top
         else:
             self.axle_height = fem.Constant(mesh, PETSc.ScalarType(self.surface + wheel.diameter / 2))
-            h = float(np.diff(np.unique(np.round(x[:, 0], 12))).min())
-            self.kappa = penalty * material.E / h
+            h = float(np.diff(np.unique(np.round(mesh.geometry.x[:, 0], 12))).min())
+            self.kappa = penalty * self.material.E / h
             axle = ufl.as_vector([0.0] * up + [self.axle_height])
             gap, normal = ufl_signed_distance(wheel, X + self.u - axle)
             traction = self.kappa * ufl.max_value(-gap, 0.0) * normal          # on the soil
@@ -462,41 +491,37 @@ class SteadyRolling:
         # the rear face's Gauss points lie on the streamlines: the traction's trace there is exact
         ds_rear = ds(2, metadata={"quadrature_degree": self.qdeg})
         self._outflow_force = fem.form(self._traction[0] * ds_rear)
+        eps_v = self._eps_v
         self._F = fem.form(ufl.inner(self._sigma, eps_v) * dx - ufl.inner(self._traction, v) * ds_rear + load)
         self._Jv = fem.form(ufl.inner(self._dsigma, eps_v) * dx - ufl.inner(self._dtraction, v) * ds_rear)
         self._load = fem.form(load)
         Dm = ufl.as_matrix(self.D.tolist())
-        K = fpetsc.assemble_matrix(fem.form(ufl.inner(ufl.dot(Dm, mandel_strain(w, gdim)), eps_v) * dx), bcs=self.bcs)
+        K = fpetsc.assemble_matrix(fem.form(ufl.inner(ufl.dot(Dm, self._eps_w), eps_v) * dx), bcs=self.bcs)
         K.assemble()
         self._b = compat.create_vector(self._F)
+        self._full = self._b.duplicate()
+        return K
+
+    def _init_preconditioner(self, K: PETSc.Mat, preconditioner: str) -> None:
+        """The rear tie, the elastic stiffness ``K`` reduced by it, and the matrices that the
+        preconditioner is refilled into (:meth:`_update_preconditioner`)."""
         self._tie = self._rear_tie()
         self._elastic_matrix = self._reduced_matrix(K)[0]
         self.preconditioner = preconditioner
         self._tangent_form = None
         if preconditioner == "tangent":
             nc = self.ncomp
-            self._tangent_fn = fem.Function(compat.quadrature_space(mesh, self.qdeg, (nc * nc,)))
+            self._tangent_fn = fem.Function(compat.quadrature_space(self.mesh, self.qdeg, (nc * nc,)))
             Ct = ufl.as_matrix([[self._tangent_fn[i * nc + j] for j in range(nc)] for i in range(nc)])
-            self._tangent_form = fem.form(ufl.inner(ufl.dot(Ct, mandel_strain(w, gdim)), eps_v) * dx)
-        if wheel is None and self._tangent_form is None:     # the elastic stiffness is all it needs
+            self._tangent_form = fem.form(ufl.inner(ufl.dot(Ct, self._eps_w), self._eps_v) * self._dx)
+        if self.wheel is None and self._tangent_form is None:     # the elastic stiffness is all it needs
             K.destroy()
             K = None
         self._elastic_full = K               # under a wheel, the contact's stiffness is added to it
         self._preconditioner_full = None if K is None else K.duplicate(copy=True)
-        self._full = self._b.duplicate()
-        #: the friction along the surface nodes' rows (a wheel with a friction coefficient)
-        self._friction = self._surface_friction() if wheel is not None and self.friction > 0 else None
-
-        self.inflow = self._geostatic_state(unit_weight, K0)
-        self.petsc_options = {**DEFAULT_STEADY_OPTIONS, **(petsc_options or {})}
-        self.options_prefix = options_prefix
-        self._ksp = self._krylov_solver()
-        self._fields: tuple | None = None
-        self._counts = {"sweeps": 0, "krylov": 0}
         self._contact_matrix: PETSc.Mat | None = None
         self._preconditioner_matrix: tuple[PETSc.Mat, PETSc.Mat] | None = None   # (reduced, product)
 
-    # ------------------------------------------------------------------ set-up
     def _streamlines(self) -> tuple[np.ndarray, np.ndarray]:
         """Quadrature points as (rows, stations): rows of equal transverse coordinates from the
         surface down (then across from y = 0 in 3D), each from the inflow (largest x) to the
@@ -720,7 +745,8 @@ class SteadyRolling:
         self._sweep(inflow)
         self._assemble(self._F, self._full)
         if self._friction is not None:
-            self._add_friction(self._full, self._friction_forces())
+            self._friction_force = self._friction_forces()
+            self._add_friction(self._full, self._friction_force)
         self._tie.multTranspose(self._full, self._b)
         return self._b
 
@@ -818,60 +844,80 @@ class SteadyRolling:
         result.axle_torque = 0.0          # frictionless: the normal pressure passes through the axle
         if self._friction is not None:
             forces = self._friction_forces()                     # on the soil, at the converged state
-            P = self._friction.point
             result.vertical_force -= self.symmetry * float(forces[..., -1].sum())
             result.towing_force += self.symmetry * float(forces[..., 0].sum())
-            result.axle_torque = -self.symmetry * float(np.sum(P[..., 0] * forces[..., -1] - P[..., -1] * forces[..., 0]))
+            result.axle_torque = self.symmetry * self._friction.torque(forces)
         return result
 
     def solve_free_rolling(self, sinkage: float, inflow: StreamlineState | None = None, *,
-                           torque_rtol: float = 1e-6, max_iterations: int = 20) -> SteadyRollingResult:
+                           torque_rtol: float = 1e-6, spin_tol: float = 1e-8,
+                           max_iterations: int = 20) -> SteadyRollingResult:
         """The steady state of the towed (free-rolling) wheel at ``sinkage`` (m): the spin
         :attr:`spin` that zeroes the axle torque, to ``|torque| <= torque_rtol R Q_V``, each solve
-        from the last (continuation).  Secant steps, at least doubling while the torque keeps its
-        sign, until the root is bracketed; then regula falsi (Illinois)."""
+        from the last.  Newton steps on the spin with the torque's exact derivative and the
+        displacement's sensitivity as predictor (:meth:`_spin_sensitivity`) until the root is
+        bracketed, then regula falsi (Illinois).  Where the torque jumps across zero (a bracket
+        narrower than ``spin_tol``), the side of the smaller torque is taken, with a warning."""
         if not (isinstance(max_iterations, int) and max_iterations >= 1):
             raise ValueError(f"max_iterations must be an integer >= 1, got {max_iterations!r}")
         if not 0 < torque_rtol < 1:
             raise ValueError(f"torque_rtol must lie in (0, 1), got {torque_rtol!r}")
         R = self.wheel.diameter / 2
         result = self.solve_sinkage(sinkage, inflow)
-        last, step = None, 1e-3
         bracket: dict[bool, tuple[float, float]] = {}      # (spin, torque) on each side of zero torque
+        ends = {}                                           # the same, torques unweighted
         kept = None                                         # the end the last regula falsi step kept
         for _ in range(max_iterations):
             torque = result.axle_torque
-            if abs(torque) <= torque_rtol * R * abs(result.vertical_force):
+            if self._friction is None or abs(torque) <= torque_rtol * R * abs(result.vertical_force):
                 return result
             side = torque > 0
-            bracket[side] = (result.spin, torque)
+            bracket[side] = ends[side] = (result.spin, torque)
             if len(bracket) == 2:
+                (s1, t1), (s0, t0) = bracket[True], bracket[False]
+                if abs(s1 - s0) <= spin_tol:
+                    return self._torque_jump(sinkage, inflow, result, ends)
                 other = not side
                 if kept == other:                           # Illinois: an end kept twice weighs half
                     bracket[other] = (bracket[other][0], 0.5 * bracket[other][1])
+                    (s1, t1), (s0, t0) = bracket[True], bracket[False]
                 kept = other
-                (s1, t1), (s0, t0) = bracket[True], bracket[False]
                 step = (s0 * t1 - s1 * t0) / (t1 - t0) - result.spin
-            elif last is not None:
-                slope = (torque - last.axle_torque) / (result.spin - last.spin)
-                secant = -torque / slope if slope != 0 else math.copysign(2 * abs(step), -torque)
-                step = math.copysign(max(abs(secant), 2 * abs(step)), secant)
+                sensitivity = self._spin_sensitivity(inflow)[0]
+            else:
+                sensitivity, slope = self._spin_sensitivity(inflow)
+                step = -torque / slope if slope != 0 else math.nan
+            if not math.isfinite(step):
+                break
             u = self.u.x.array.copy()
             while True:
                 self.spin = result.spin + step
+                self.u.x.array[:] = u + step * sensitivity
                 try:
                     trial = self.solve_sinkage(sinkage, inflow)
                     break
                 except NoSteadyState:
                     # the stick-slip pattern jumped too far: back to the last state, half the step
-                    self.u.x.array[:] = u
                     step *= 0.5
                     if abs(step) < 1e-9:
-                        self.spin = result.spin
+                        self.u.x.array[:], self.spin = u, result.spin
                         raise
-            last, result = result, trial
+            result = trial
         raise NoSteadyState(f"no free-rolling spin at the sinkage {sinkage:.6g} m: the axle torque stayed at "
                             f"{result.axle_torque:.3e} N m/m after {max_iterations} solves")
+
+    def _torque_jump(self, sinkage: float, inflow, result: SteadyRollingResult,
+                     ends: dict[bool, tuple[float, float]]) -> SteadyRollingResult:
+        """The free-rolling state where the torque jumps across zero between the ``ends``
+        ((spin, torque) of either sign)."""
+        spin, torque = min(ends.values(), key=lambda end: abs(end[1]))
+        log.warning("steady rolling at the sinkage %.6g m: the axle torque jumps from %.4g to %.4g N m "
+                    "between the spins %.9f and %.9f; taking %.9f", sinkage, ends[False][1],
+                    ends[True][1], ends[False][0], ends[True][0], spin)
+        if spin == result.spin:
+            return result
+        self.spin = spin
+        return self.solve_sinkage(sinkage, inflow)
 
     def solve_load(self, load: float, inflow: StreamlineState | None = None, *, initial_sinkage: float | None = None,
                    free_rolling: bool = False, rtol: float = 1e-6, max_iterations: int = 20) -> SteadyRollingResult:
@@ -931,14 +977,12 @@ class SteadyRolling:
             raise ValueError(f"inflow state has {inflow.stress.shape[0]} streamlines, the mesh "
                              f"{len(self.streamline_depths)}")
         ctl = self.control
-        contact = self.wheel is not None
         t0 = time.perf_counter()
         self._counts = {"sweeps": 0, "krylov": 0}
         scale = self._load_norm()
         b = self.residual(inflow)
         norm = b.norm()
         history = [norm / scale]
-        step = self._b.duplicate()
         it = 0
         while not history[-1] <= ctl.rtol:
             if not math.isfinite(norm):
@@ -946,20 +990,13 @@ class SteadyRolling:
             if it == ctl.max_iterations:
                 self._fail(load_text, f"Newton-Krylov did not converge in {it} iterations (residual "
                                       f"{history[-1]:.2e} of the load's, wanted {ctl.rtol:.0e})")
-            if contact or self._tangent_form is not None:
+            if self.wheel is not None or self._tangent_form is not None:
                 self._update_preconditioner()
             rhs = b.copy()
             rhs.scale(-1.0)
-            self._ksp.setTolerances(atol=0.1 * ctl.rtol * scale)
-            self._ksp.solve(rhs, step)
-            self._counts["krylov"] += self._ksp.getIterationNumber()
-            reason = self._ksp.getConvergedReason()
-            if reason < 0:
-                log.info("steady rolling: GMRES stopped (reason %d) after %d iterations; step taken as is",
-                         reason, self._ksp.getIterationNumber())
-            self._tie.mult(step, compat.petsc_vector(self._du))
-            u0, du = self.u.x.array.copy(), self._du.x.array.copy()
-            alpha = 1.0
+            du = self._krylov(rhs, scale)
+            rhs.destroy()
+            u0, alpha = self.u.x.array.copy(), 1.0
             while True:
                 self.u.x.array[:] = u0 + alpha * du
                 b = self.residual(inflow)
@@ -971,7 +1008,7 @@ class SteadyRolling:
                     self._fail(load_text, f"no Newton step lowers the residual ({norm / scale:.2e} of the "
                                           f"load's after {it} iterations)")
             norm = trial
-            if contact:
+            if self.wheel is not None:
                 scale = self._load_norm()
             it += 1
             history.append(norm / scale)
@@ -983,6 +1020,42 @@ class SteadyRolling:
                                    krylov_iterations=self._counts["krylov"], sweeps=self._counts["sweeps"],
                                    wall_time=time.perf_counter() - t0, outflow=outflow,
                                    max_accumulated_plastic_strain=float(ACC.max()), residual_norms=history)
+
+    def _krylov(self, rhs: PETSc.Vec, scale: float) -> np.ndarray:
+        """The full displacement increment ``P x`` of ``P^T J P x = rhs`` (GMRES, to the absolute
+        tolerance of a tenth of the Newton test on ``scale``)."""
+        x = self._b.duplicate()
+        self._ksp.setTolerances(atol=0.1 * self.control.rtol * scale)
+        self._ksp.solve(rhs, x)
+        self._counts["krylov"] += self._ksp.getIterationNumber()
+        reason = self._ksp.getConvergedReason()
+        if reason < 0:
+            log.info("steady rolling: GMRES stopped (reason %d) after %d iterations; step taken as is",
+                     reason, self._ksp.getIterationNumber())
+        self._tie.mult(x, compat.petsc_vector(self._du))
+        x.destroy()
+        return self._du.x.array.copy()
+
+    def _spin_sensitivity(self, inflow: StreamlineState | None) -> tuple[np.ndarray, float]:
+        """At a converged state: the displacement's derivative with the spin ``c`` (``J c =
+        -dR/dxi``) and the axle torque's total derivative ``T_xi + T_u c`` (N m per unit spin, the
+        half window's)."""
+        self.residual(self.inflow if inflow is None else inflow)
+        self._update_preconditioner()
+        friction, force = self._friction, self._friction_force
+        zero = np.zeros(friction.rows.nodes.shape + (self.gdim,))
+        d_spin = friction.tangent(zero, dspin=1.0)
+        with self._full.localForm() as local:
+            local.set(0.0)
+        self._add_friction(self._full, d_spin)              # dR/dxi
+        rhs = self._b.duplicate()
+        self._tie.multTranspose(self._full, rhs)
+        rhs.scale(-1.0)
+        c = self._krylov(rhs, self._load_norm())
+        rhs.destroy()
+        dU = self._surface_displacement(c)
+        slope = friction.torque(force, zero, d_spin) + friction.torque(force, dU, friction.tangent(dU))
+        return c, slope
 
     def passes(self, peak_pressure: float, count: int) -> list[SteadyRollingResult]:
         """``count`` passes of the same load: each pass's soil enters in the state the last one

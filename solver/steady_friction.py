@@ -80,6 +80,16 @@ class SurfaceFriction:
         self._dx = np.diff(rows.x, prepend=rows.x[0])                  # (stations,), <= 0
         self._state = None
 
+    def torque(self, forces: np.ndarray, dU: np.ndarray | None = None, dforces: np.ndarray | None = None) -> float:
+        """The moment about the axle (N m, in the rolling sense) on the wheel of the nodal
+        ``forces`` on the soil at the last sweep; with ``dU`` and ``dforces`` (their derivative),
+        its derivative."""
+        P = self.point
+        if dU is None:
+            return -float(np.sum(P[..., 0] * forces[..., -1] - P[..., -1] * forces[..., 0]))
+        return -float(np.sum(dU[..., 0] * forces[..., -1] + P[..., 0] * dforces[..., -1]
+                             - dU[..., -1] * forces[..., 0] - P[..., -1] * dforces[..., 0]))
+
     @property
     def point(self) -> np.ndarray:
         """The surface nodes' positions from the axle (m, (rows, stations, gdim)) at the last sweep."""
@@ -146,15 +156,16 @@ class SurfaceFriction:
                            contact=dist.reshape(pN.shape) < 0, hessian=hessian, spin=spin)
         return self.rows.weights[..., None] * np.einsum("rsm,rsmi->rsi", t, T)
 
-    def tangent(self, dU: np.ndarray) -> np.ndarray:
+    def tangent(self, dU: np.ndarray, dspin: float = 0.0) -> np.ndarray:
         """The derivative of the last :meth:`sweep`'s nodal forces (N) for the surface nodes'
-        displacement increment ``dU`` (m, (rows, stations, gdim))."""
+        displacement increment ``dU`` (m, (rows, stations, gdim)) and the spin's ``dspin``."""
         st = self._state
         n, T, t, slip = st["n"], st["T"], st["t"], st["slip"]
         dn = np.einsum("rsij,rsj->rsi", st["hessian"], dU)
         dT = self._frame_derivative(n, T, dn)
         dpN = np.where(st["contact"], -self.kappa * np.einsum("rsi,rsi->rs", n, dU), 0.0)
-        dslip = np.diff(dU, axis=1, prepend=dU[:, :1]) - (st["spin"] / self.radius * self._dx)[None, :, None] * self._turn(dU)
+        dslip = np.diff(dU, axis=1, prepend=dU[:, :1]) - (self._dx / self.radius)[None, :, None] * (
+            st["spin"] * self._turn(dU) + dspin * self._turn(st["P"]))
         ds = np.einsum("rsmi,rsi->rsm", T, dslip) + np.einsum("rsmi,rsi->rsm", dT, slip)
         dt = np.zeros_like(ds)
         prev = np.zeros_like(ds[:, 0])
