@@ -506,7 +506,6 @@ class SteadyRolling:
         """The rear tie, the elastic stiffness ``K`` reduced by it, and the matrices that the
         preconditioner is refilled into (:meth:`_update_preconditioner`)."""
         self._tie = self._rear_tie()
-        self._elastic_matrix = self._reduced_matrix(K)[0]
         self.preconditioner = preconditioner
         self._tangent_form = None
         if preconditioner == "tangent":
@@ -514,11 +513,16 @@ class SteadyRolling:
             self._tangent_fn = fem.Function(compat.quadrature_space(self.mesh, self.qdeg, (nc * nc,)))
             Ct = ufl.as_matrix([[self._tangent_fn[i * nc + j] for j in range(nc)] for i in range(nc)])
             self._tangent_form = fem.form(ufl.inner(ufl.dot(Ct, self._eps_w), self._eps_v) * self._dx)
-        if self.wheel is None and self._tangent_form is None:     # the elastic stiffness is all it needs
+        #: the preconditioner factored once (the elastic stiffness under a Hertz pressure), else
+        #: refilled at each Newton iteration into :attr:`_preconditioner_full`'s pattern
+        self._elastic_matrix = self._elastic_full = self._preconditioner_full = None
+        if self.wheel is None and self._tangent_form is None:
+            self._elastic_matrix = self._reduced_matrix(K)[0]
             K.destroy()
-            K = None
-        self._elastic_full = K               # under a wheel, the contact's stiffness is added to it
-        self._preconditioner_full = None if K is None else K.duplicate(copy=True)
+        elif self._tangent_form is None:        # under a wheel, the contact's stiffness is added to it
+            self._elastic_full, self._preconditioner_full = K, K.duplicate(copy=True)
+        else:
+            self._preconditioner_full = K
         self._contact_matrix: PETSc.Mat | None = None
         self._preconditioner_matrix: tuple[PETSc.Mat, PETSc.Mat] | None = None   # (reduced, product)
 
@@ -674,7 +678,10 @@ class SteadyRolling:
             opts[self.options_prefix + key] = val
         ksp = PETSc.KSP().create(self.comm)
         ksp.setOptionsPrefix(self.options_prefix)
-        ksp.setOperators(jac, self._elastic_matrix)     # the preconditioner is factored once
+        if self._elastic_matrix is not None:
+            ksp.setOperators(jac, self._elastic_matrix)     # the preconditioner is factored once
+        else:                                           # set at each Newton iteration
+            ksp.setOperators(jac)
         ksp.setFromOptions()
         self._jacobian = jac
         return ksp
@@ -685,7 +692,7 @@ class SteadyRolling:
 
     def _store(self, f: fem.Function, rows_values: np.ndarray) -> None:
         """Put (rows, stations, components) values at their quadrature points of ``f``."""
-        flat = np.empty((self.n_qp, self.ncomp))
+        flat = np.empty((self.n_qp, rows_values.shape[-1]))
         flat[self._order] = rows_values
         f.x.array[: flat.size] = flat.reshape(-1)
 
@@ -762,9 +769,7 @@ class SteadyRolling:
             self._contact_matrix.assemble()
         M = self._preconditioner_full
         if self._tangent_form is not None:
-            flat = np.empty((self.n_qp, self.ncomp * self.ncomp))
-            flat[self._order] = self._tangent.reshape(*self._tangent.shape[:2], -1)
-            self._tangent_fn.x.array[:] = flat.reshape(-1)
+            self._store(self._tangent_fn, self._tangent.reshape(*self._tangent.shape[:2], -1))
             M.zeroEntries()
             fpetsc.assemble_matrix(M, self._tangent_form, bcs=self.bcs)
             M.assemble()
@@ -843,7 +848,7 @@ class SteadyRolling:
         result.spin = self.spin
         result.axle_torque = 0.0          # frictionless: the normal pressure passes through the axle
         if self._friction is not None:
-            forces = self._friction_forces()                     # on the soil, at the converged state
+            forces = self._friction_force                        # on the soil, at the converged state
             result.vertical_force -= self.symmetry * float(forces[..., -1].sum())
             result.towing_force += self.symmetry * float(forces[..., 0].sum())
             result.axle_torque = self.symmetry * self._friction.torque(forces)
@@ -883,9 +888,9 @@ class SteadyRolling:
                     (s1, t1), (s0, t0) = bracket[True], bracket[False]
                 kept = other
                 step = (s0 * t1 - s1 * t0) / (t1 - t0) - result.spin
-                sensitivity = self._spin_sensitivity(inflow)[0]
+                sensitivity = self._spin_sensitivity()[0]
             else:
-                sensitivity, slope = self._spin_sensitivity(inflow)
+                sensitivity, slope = self._spin_sensitivity()
                 step = -torque / slope if slope != 0 else math.nan
             if not math.isfinite(step):
                 break
@@ -1036,11 +1041,10 @@ class SteadyRolling:
         x.destroy()
         return self._du.x.array.copy()
 
-    def _spin_sensitivity(self, inflow: StreamlineState | None) -> tuple[np.ndarray, float]:
-        """At a converged state: the displacement's derivative with the spin ``c`` (``J c =
-        -dR/dxi``) and the axle torque's total derivative ``T_xi + T_u c`` (N m per unit spin, the
-        half window's)."""
-        self.residual(self.inflow if inflow is None else inflow)
+    def _spin_sensitivity(self) -> tuple[np.ndarray, float]:
+        """At a converged state (that of the last residual): the displacement's derivative with the
+        spin ``c`` (``J c = -dR/dxi``) and the axle torque's total derivative ``T_xi + T_u c`` (N m
+        per unit spin, the half window's)."""
         self._update_preconditioner()
         friction, force = self._friction, self._friction_force
         zero = np.zeros(friction.rows.nodes.shape + (self.gdim,))
