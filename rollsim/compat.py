@@ -35,6 +35,27 @@ def model_to_mesh(model, comm: MPI.Comm, rank: int, gdim: int):
     return gmshio.model_to_mesh(model, comm, rank, gdim=gdim)
 
 
+def create_partitioned_mesh(comm: MPI.Comm, cells: np.ndarray, x: np.ndarray, cell_name: str, destination):
+    """Mesh of first-order ``cell_name`` cells (vertex indices into ``x``, both given on rank 0,
+    empty elsewhere) where ``destination(cell_vertices, parts)`` (an array of the vertices of the
+    cells to place, one row per cell) gives each cell's ranks: ``(owner, ghosts)``, an array of
+    owners and a list of arrays of the ranks that hold the cell as a ghost (the owners of the cells
+    that share a vertex with it).  The partitioner's signature and the element's construction
+    changed after 0.5."""
+    from dolfinx import cpp, mesh as dmesh
+    vertices = cells.shape[1]
+
+    def partitioner(_comm, parts, _tdim, cell_vertices, _ghost_mode):
+        owner, ghosts = destination(cell_vertices.array.reshape(-1, vertices), parts)
+        lists = [np.concatenate([[o], g]) for o, g in zip(owner, ghosts)]
+        offsets = np.cumsum([0] + [len(d) for d in lists]).astype(np.int32)
+        data = np.concatenate(lists).astype(np.int32) if lists else np.zeros(0, np.int32)
+        return cpp.graph.AdjacencyList_int32(data, offsets)
+
+    domain = ufl.Mesh(ufl.VectorElement("Lagrange", cell_name, 1))
+    return dmesh.create_mesh(comm, cells, x, domain, dmesh.GhostMode.shared_facet, partitioner)
+
+
 def vector_space(mesh, degree: int, family: str = "Lagrange", dim: int | None = None):
     """Vector-valued space of ``family`` (continuous Lagrange by default), with one component per
     geometric dimension or ``dim``."""

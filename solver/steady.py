@@ -33,11 +33,14 @@ window's rear is a near-null mode of the equations, which deep windows excite.  
 symmetry plane y = 0 and the far side face are rollers (``u_y = 0``).  Rate-independent
 plasticity needs only increments: the rolling speed drops out.
 
-Serial only for now (a streamline crosses the cells of several ranks otherwise).
+On several ranks every streamline lies on one rank (:func:`rolling_window_mesh` gives each rank
+whole rows of cells along x), so the sweeps stay local; a row of surface nodes on the boundary
+between two ranks is swept by both, and each adds the forces on the nodes it owns.
 Reference: K. Dang Van, M. H. Maitournam, J. Mech. Phys. Solids 41 (1993) 1691-1710.
 """
 from __future__ import annotations
 
+import itertools
 import math
 import time
 from dataclasses import dataclass, field
@@ -209,19 +212,46 @@ class RollingWindow:
 
 def rolling_window_mesh(comm: MPI.Comm, window: RollingWindow):
     """Structured mesh of ``window``, cells aligned with the axes: quadrilaterals in plane strain,
-    hexahedra in 3D."""
+    hexahedra in 3D.  On several ranks each rank owns whole rows of cells along x, so that every
+    streamline lies on one rank: in plane strain a block of layers, in 3D a block of columns across
+    the travel (each from the surface to the base); the rows next to them are its ghosts."""
     nodes = [window.x_nodes(), window.y_nodes()] if window.dimension == 2 else \
         [window.x_nodes(), window.across_nodes(), window.y_nodes()]
     counts = [len(n) - 1 for n in nodes]
-    corners = [np.zeros(len(counts)), np.array(counts, dtype=float)]
-    if len(counts) == 2:
-        msh = dmesh.create_rectangle(comm, corners, counts, dmesh.CellType.quadrilateral)
+    rows = int(np.prod(counts[1:]))
+    if comm.size > rows:
+        raise ValueError(f"the window has {rows} rows of cells along the travel, fewer than the {comm.size} ranks: "
+                         "each rank needs whole rows")
+    gdim = len(counts)
+    if comm.rank == 0:
+        grids = np.meshgrid(*nodes, indexing="ij")
+        x = np.stack([g.ravel(order="F") for g in grids], axis=1)          # x fastest
+        index = np.arange(len(x)).reshape([c + 1 for c in counts], order="F")
+        corners = []
+        for offset in itertools.product((0, 1), repeat=gdim):       # DOLFINx's tensor-product order
+            shift = offset[::-1]                                    # x varies fastest
+            corners.append(index[tuple(slice(shift[k], shift[k] + counts[k]) for k in range(gdim))].ravel(order="F"))
+        cells = np.stack(corners, axis=1).astype(np.int64)
     else:
-        msh = dmesh.create_box(comm, corners, counts, dmesh.CellType.hexahedron)
-    x = msh.geometry.x
-    for axis, n in enumerate(nodes):
-        x[:, axis] = np.interp(x[:, axis], np.arange(counts[axis] + 1), n)
-    return msh
+        x, cells = np.zeros((0, gdim)), np.zeros((0, 2 ** gdim), dtype=np.int64)
+    stride = counts[0] + 1
+
+    across, layers = (counts[1], counts[2]) if gdim == 3 else (1, counts[1])
+
+    def owner(j: np.ndarray, k: np.ndarray) -> np.ndarray:
+        """The rank of the row of cells ``j`` across (from y = 0) and ``k`` up (from the base)."""
+        return (k + layers * j) * comm.size // rows
+
+    def by_rows(cell_vertices: np.ndarray, parts: int):
+        first = cell_vertices.min(axis=1) // stride                 # the cell's row of vertices
+        j, k = (first % (counts[1] + 1), first // (counts[1] + 1)) if gdim == 3 else (np.zeros_like(first), first)
+        own = owner(j, k)
+        near = [owner(np.clip(j + dj, 0, across - 1), np.clip(k + dk, 0, layers - 1))
+                for dj in (-1, 0, 1) for dk in (-1, 0, 1)]
+        ghosts = [np.setdiff1d(ranks, [o]) for o, ranks in zip(own, np.stack(near, axis=1))]
+        return own, ghosts
+
+    return compat.create_partitioned_mesh(comm, cells, x, "quadrilateral" if gdim == 2 else "hexahedron", by_rows)
 
 
 @dataclass(frozen=True)
@@ -307,10 +337,6 @@ class HorizontalBalance:
 
 def _check_arguments(mesh, half_width, wheel, penalty, friction, preconditioner, unit_weight) -> None:
     """The arguments of :class:`SteadyRolling` that it refuses, with the reason."""
-    if mesh.comm.size > 1:
-        raise NotImplementedError(
-            f"steady rolling runs on one rank for now, the mesh's communicator has {mesh.comm.size}: "
-            "its streamlines would cross the cells of several ranks")
     gdim = mesh.geometry.dim
     cells = {2: "quadrilateral", 3: "hexahedron"}.get(gdim)
     if compat.cell_name(mesh) != cells:
@@ -388,9 +414,9 @@ class SteadyRolling:
         self.qdeg = 2 * degree if quadrature_degree is None else quadrature_degree
         self.D = elastic_stiffness(material, self.ncomp)
         self._D_inv = np.linalg.inv(self.D)
-        x = mesh.geometry.x
-        self.x_in, self.x_out = float(x[:, 0].max()), float(x[:, 0].min())
-        self.surface, self.base = float(x[:, self._up].max()), float(x[:, self._up].min())
+        x, comm = mesh.geometry.x, self.comm
+        self.x_in, self.surface = comm.allreduce(float(x[:, 0].max()), MPI.MAX), comm.allreduce(float(x[:, self._up].max()), MPI.MAX)
+        self.x_out, self.base = comm.allreduce(float(x[:, 0].min()), MPI.MIN), comm.allreduce(float(x[:, self._up].min()), MPI.MIN)
         self._init_spaces(degree)
         ds = self._init_boundary()
         K = self._init_forms(ds, degree, penalty, unit_weight)
@@ -412,6 +438,8 @@ class SteadyRolling:
         self.V = compat.vector_space(mesh, degree)
         self.u = fem.Function(self.V, name="displacement")
         self._du = fem.Function(self.V)
+        #: the rank's owned nodes of the displacement (the first of its local nodes; ghosts follow)
+        self._owned_nodes = self.V.dofmap.index_map.size_local
         self.n_cells = mesh.topology.index_map(mesh.topology.dim).size_local
         points = compat.quadrature_points(mesh, self.qdeg)
         self._n_points = points.shape[0]
@@ -447,7 +475,7 @@ class SteadyRolling:
         bs = self.V.dofmap.index_map_bs
         self._fixed = (fixed[:, None] * bs + np.arange(bs)).reshape(-1)     # unrolled dof indices
         if gdim == 3:                # rollers: the symmetry plane y = 0 and the side face
-            y_side = float(mesh.geometry.x[:, 1].max())
+            y_side = self.comm.allreduce(float(mesh.geometry.x[:, 1].max()), MPI.MAX)
             sides = dmesh.locate_entities_boundary(
                 mesh, fdim, lambda p: (np.abs(p[1]) < tol) | (np.abs(p[1] - y_side) < tol))
             lateral = fem.locate_dofs_topological(self.V.sub(1), fdim, sides)
@@ -455,6 +483,9 @@ class SteadyRolling:
                 raise RuntimeError("the lateral faces' dofs of u_y are not in the unrolled numbering expected")
             self.bcs.append(fem.dirichletbc(PETSc.ScalarType(0.0), lateral, self.V.sub(1)))
             self._fixed = np.union1d(self._fixed, lateral)
+        owned = self._fixed[self._fixed < self._owned_nodes * bs]
+        #: the fixed dofs owned here, numbered globally (PETSc's rows)
+        self._fixed_global = (owned + self.V.dofmap.index_map.local_range[0] * bs).astype(PETSc.IntType)
         facets = np.concatenate([top, rear])
         tags = np.concatenate([np.full(len(top), 1, np.int32), np.full(len(rear), 2, np.int32)])
         order = np.argsort(facets)
@@ -477,7 +508,7 @@ class SteadyRolling:
             load = pressure * v[up] * ds_top
         else:
             self.axle_height = fem.Constant(mesh, PETSc.ScalarType(self.surface + wheel.diameter / 2))
-            h = float(np.diff(np.unique(np.round(mesh.geometry.x[:, 0], 12))).min())
+            h = self.comm.allreduce(float(np.diff(np.unique(np.round(mesh.geometry.x[:, 0], 12))).min()), MPI.MIN)
             self.kappa = penalty * self.material.E / h
             axle = ufl.as_vector([0.0] * up + [self.axle_height])
             gap, normal = ufl_signed_distance(wheel, X + self.u - axle)
@@ -537,10 +568,16 @@ class SteadyRolling:
         key = np.ravel_multi_index(levels, [lv.max() + 1 for lv in levels])
         order = np.argsort(key, kind="stable")
         rows = np.split(order, np.flatnonzero(np.diff(key[order])) + 1)
-        if len({len(r) for r in rows}) != 1:
+        if self.comm.allreduce(len({len(r) for r in rows}) != 1, MPI.LOR):
             raise ValueError("the quadrature points do not form streamlines of equal length: the mesh must be "
                              "a structured grid of cells aligned with x (rolling_window_mesh)")
-        table = np.array([r[np.argsort(-xq[r], kind="stable")] for r in rows])
+        table = np.array([r[np.argsort(-xq[r], kind="stable")] for r in rows]).reshape(len(rows), -1)
+        columns = np.unique(np.concatenate(self.comm.allgather(np.unique(np.round(self.mesh.geometry.x[:, 0], 12)))))
+        stations = (len(columns) - 1) * round(self._n_points ** (1.0 / self.gdim))
+        if self.comm.allreduce(table.shape[1] != stations, MPI.LOR):
+            raise ValueError(f"the streamlines are cut between ranks (the window has {stations} stations along "
+                             "each): each rank must own whole rows of cells along x (rolling_window_mesh's "
+                             "partition)")
         return table, self.surface - height[table[:, 0]]
 
     def _outflow_map(self) -> None:
@@ -583,18 +620,18 @@ class SteadyRolling:
     def _rear_tie(self) -> PETSc.Mat:
         """``P`` with ``u = P z``: the displacement of the last column of cells is that of its front
         nodes, the same at every x (the state no longer changes there); identity elsewhere.
-        :attr:`_slaves`: the dofs so tied."""
+        :attr:`_slaves`: the (owned) dofs so tied."""
         X = self.V.tabulate_dof_coordinates()
-        bs = self.V.dofmap.index_map_bs
-        n_nodes = self.V.dofmap.index_map.size_local
+        index_map, bs = self.V.dofmap.index_map, self.V.dofmap.index_map_bs
+        n_nodes = self._owned_nodes
         vertex_x = np.unique(np.round(self.mesh.geometry.x[:, 0], 12))
         x_tie = vertex_x[1]
         tol = 1e-9 * (self.x_in - self.x_out)
         rear = np.setdiff1d(np.flatnonzero(X[:n_nodes, 0] < x_tie - tol), self._fixed_nodes)
-        front = np.flatnonzero(np.abs(X[:n_nodes, 0] - x_tie) < tol)
+        front = np.flatnonzero(np.abs(X[:, 0] - x_tie) < tol)      # owned or ghost: the rows are whole
         # the front node at the same transverse coordinates as each rear node
         levels = [_levels(X[np.concatenate([front, rear]), k], tol) for k in range(1, self.gdim)]
-        key = np.ravel_multi_index(levels, [lv.max() + 1 for lv in levels])
+        key = np.ravel_multi_index(levels, [lv.max() + 1 for lv in levels]) if len(front) else np.zeros(0, int)
         front_key, rear_key = key[:len(front)], key[len(front):]
         by_key = np.argsort(front_key)
         at = np.minimum(np.searchsorted(front_key[by_key], rear_key), len(front) - 1)
@@ -603,18 +640,18 @@ class SteadyRolling:
             raise ValueError("the last column of cells has no front node at the transverse coordinates of "
                              "every rear node")
         n = n_nodes * bs
-        cols = np.arange(n)
+        size = ((n, PETSc.DECIDE), (n, PETSc.DECIDE))
+        global_nodes = index_map.local_to_global(np.arange(len(X), dtype=np.int32))
+        cols = np.arange(n) + index_map.local_range[0] * bs
         slaves = (rear[:, None] * bs + np.arange(bs)).reshape(-1)
-        cols[slaves] = (master[:, None] * bs + np.arange(bs)).reshape(-1)
-        P = PETSc.Mat().createAIJ(((n, n), (n, n)), nnz=1, comm=self.comm)
-        P.setValuesCSR(np.arange(n + 1, dtype=PETSc.IntType), cols.astype(PETSc.IntType), np.ones(n))
-        P.assemble()
+        cols[slaves] = (global_nodes[master][:, None] * bs + np.arange(bs)).reshape(-1)
+        rows = np.arange(n + 1, dtype=PETSc.IntType)
+        P = PETSc.Mat().createAIJWithArrays(size, (rows, cols.astype(PETSc.IntType), np.ones(n)), comm=self.comm)
         self._slaves = slaves
         diagonal = np.zeros(n)
         diagonal[slaves] = 1.0
-        self._tied_ones = PETSc.Mat().createAIJ(((n, n), (n, n)), nnz=1, comm=self.comm)
-        self._tied_ones.setValuesCSR(np.arange(n + 1, dtype=PETSc.IntType), np.arange(n, dtype=PETSc.IntType), diagonal)
-        self._tied_ones.assemble()
+        own = (np.arange(n) + index_map.local_range[0] * bs).astype(PETSc.IntType)
+        self._tied_ones = PETSc.Mat().createAIJWithArrays(size, (rows, own, diagonal), comm=self.comm)
         return P
 
     def _reduced_matrix(self, K: PETSc.Mat, out: tuple[PETSc.Mat, PETSc.Mat] | None = None
@@ -634,13 +671,29 @@ class SteadyRolling:
         return reduced, product
 
     def _surface_friction(self) -> SurfaceFriction:
-        """The friction on the surface nodes' rows; :attr:`_surface_free`: which of their dofs
-        ((rows, stations, gdim)) are not fixed."""
-        X = self.V.tabulate_dof_coordinates()[: self.V.dofmap.index_map.size_local, : self.gdim]
-        rows = SurfaceRows.of(X, self.surface, 1e-9 * (self.x_in - self.x_out))
+        """The friction on the surface nodes' rows that this rank holds (whole rows: its own
+        nodes' and its ghosts'); :attr:`_surface_free`: which of their dofs ((rows, stations, gdim))
+        are not fixed and are owned here (each rank adds the forces on its own nodes)."""
+        X = self.V.tabulate_dof_coordinates()[:, : self.gdim]
+        tol = 1e-9 * (self.x_in - self.x_out)
+        on_top = np.abs(X[:, -1] - self.surface) < tol
+        across = np.unique(np.concatenate(self.comm.allgather(np.unique(np.round(X[on_top, 1], 12))))) \
+            if self.gdim == 3 else None
+        rows = SurfaceRows.of(X, self.surface, tol, across)
         dofs = rows.nodes[..., None] * self.V.dofmap.index_map_bs + np.arange(self.gdim)
-        self._surface_free = ~np.isin(dofs, self._fixed)
+        self._surface_free = ~np.isin(dofs, self._fixed) & (rows.nodes < self._owned_nodes)[..., None]
         return SurfaceFriction(rows, self.wheel, self.friction, self.kappa)
+
+    def _owned(self, forces: np.ndarray) -> np.ndarray:
+        """The friction's nodal ``forces`` ((rows, stations, gdim)) on this rank's own nodes (zero on
+        its ghosts: their owners count them)."""
+        return np.where((self._friction.rows.nodes < self._owned_nodes)[..., None], forces, 0.0)
+
+    def _friction_torque(self, forces: np.ndarray, dU: np.ndarray | None = None,
+                         dforces: np.ndarray | None = None) -> float:
+        """:meth:`SurfaceFriction.torque` summed over the ranks (the half window's, N m)."""
+        dforces = None if dforces is None else self._owned(dforces)
+        return self.comm.allreduce(self._friction.torque(self._owned(forces), dU, dforces), MPI.SUM)
 
     def _surface_displacement(self, u: np.ndarray) -> np.ndarray:
         return u.reshape(-1, self.gdim)[self._friction.rows.nodes]
@@ -670,8 +723,8 @@ class SteadyRolling:
         return StreamlineState(stress, np.zeros((rows, nc)), np.zeros(rows))
 
     def _krylov_solver(self) -> PETSc.KSP:
-        n = self.V.dofmap.index_map.size_local * self.V.dofmap.index_map_bs
-        jac = PETSc.Mat().createPython(((n, n), (n, n)), _JacobianAction(self), comm=self.comm)
+        n = self._owned_nodes * self.V.dofmap.index_map_bs
+        jac = PETSc.Mat().createPython(((n, PETSc.DECIDE), (n, PETSc.DECIDE)), _JacobianAction(self), comm=self.comm)
         jac.setUp()
         opts = PETSc.Options()
         for key, val in self.petsc_options.items():
@@ -764,9 +817,10 @@ class SteadyRolling:
         if self._contact_stiffness is not None:
             if self._contact_matrix is not None:
                 self._contact_matrix.destroy()
-            # zero on the fixed dofs' diagonal: the elastic stiffness has its ones there
-            self._contact_matrix = fpetsc.assemble_matrix(self._contact_stiffness, bcs=self.bcs, diagonal=0.0)
+            # zero on the fixed dofs' rows, columns and diagonal: the elastic stiffness has its ones there
+            self._contact_matrix = fpetsc.assemble_matrix(self._contact_stiffness)
             self._contact_matrix.assemble()
+            self._contact_matrix.zeroRowsColumns(self._fixed_global, diag=0.0)
         M = self._preconditioner_full
         if self._tangent_form is not None:
             self._store(self._tangent_fn, self._tangent.reshape(*self._tangent.shape[:2], -1))
@@ -786,6 +840,7 @@ class SteadyRolling:
         """``y = P^T J P x`` at the state of the last residual (identity on the fixed and tied dofs)."""
         du = compat.petsc_vector(self._du)
         self._tie.mult(x, du)
+        self._du.x.scatter_forward()
         self._du.x.array[self._fixed] = 0.0
         self._tangent_sweep()
         self._assemble(self._Jv, self._full)
@@ -794,7 +849,7 @@ class SteadyRolling:
         if self._friction is not None:
             self._add_friction(self._full, self._friction.tangent(self._surface_displacement(self._du.x.array)))
         self._tie.multTranspose(self._full, y)
-        keep = np.concatenate([self._fixed, self._slaves])
+        keep = np.concatenate([self._fixed[self._fixed < len(y.array)], self._slaves])
         y.array[keep] = x.array_r[keep]
 
     # ------------------------------------------------------------------ solves
@@ -843,16 +898,21 @@ class SteadyRolling:
         self.axle_height.value = self.surface + self.wheel.diameter / 2 - sinkage
         result = self._newton(inflow, f"at the sinkage {sinkage:.6g} m")
         result.sinkage = self._last_sinkage = float(sinkage)
-        result.vertical_force = self.symmetry * float(fem.assemble_scalar(self._vertical_force))
-        result.towing_force = self.symmetry * float(fem.assemble_scalar(self._towing_force))
+        result.vertical_force = self.symmetry * self._scalar(self._vertical_force)
+        result.towing_force = self.symmetry * self._scalar(self._towing_force)
         result.spin = self.spin
         result.axle_torque = 0.0          # frictionless: the normal pressure passes through the axle
         if self._friction is not None:
             forces = self._friction_force                        # on the soil, at the converged state
-            result.vertical_force -= self.symmetry * float(forces[..., -1].sum())
-            result.towing_force += self.symmetry * float(forces[..., 0].sum())
-            result.axle_torque = self.symmetry * self._friction.torque(forces)
+            total = self.comm.allreduce(self._owned(forces).sum(axis=(0, 1)), MPI.SUM)
+            result.vertical_force -= self.symmetry * float(total[-1])
+            result.towing_force += self.symmetry * float(total[0])
+            result.axle_torque = self.symmetry * self._friction_torque(forces)
         return result
+
+    def _scalar(self, form) -> float:
+        """A functional assembled over all ranks."""
+        return self.comm.allreduce(float(fem.assemble_scalar(form)), MPI.SUM)
 
     def solve_free_rolling(self, sinkage: float, inflow: StreamlineState | None = None, *,
                            torque_rtol: float = 1e-6, spin_tol: float = 1e-8,
@@ -1024,7 +1084,7 @@ class SteadyRolling:
         return SteadyRollingResult(peak_pressure=None, newton_iterations=it,
                                    krylov_iterations=self._counts["krylov"], sweeps=self._counts["sweeps"],
                                    wall_time=time.perf_counter() - t0, outflow=outflow,
-                                   max_accumulated_plastic_strain=float(ACC.max()), residual_norms=history)
+                                   max_accumulated_plastic_strain=self.comm.allreduce(float(ACC.max(initial=0.0)), MPI.MAX), residual_norms=history)
 
     def _krylov(self, rhs: PETSc.Vec, scale: float) -> np.ndarray:
         """The full displacement increment ``P x`` of ``P^T J P x = rhs`` (GMRES, to the absolute
@@ -1038,6 +1098,7 @@ class SteadyRolling:
             log.info("steady rolling: GMRES stopped (reason %d) after %d iterations; step taken as is",
                      reason, self._ksp.getIterationNumber())
         self._tie.mult(x, compat.petsc_vector(self._du))
+        self._du.x.scatter_forward()
         x.destroy()
         return self._du.x.array.copy()
 
@@ -1058,7 +1119,7 @@ class SteadyRolling:
         c = self._krylov(rhs, self._load_norm())
         rhs.destroy()
         dU = self._surface_displacement(c)
-        slope = friction.torque(force, zero, d_spin) + friction.torque(force, dU, friction.tangent(dU))
+        slope = self._friction_torque(force, zero, d_spin) + self._friction_torque(force, dU, friction.tangent(dU))
         return c, slope
 
     def passes(self, peak_pressure: float, count: int) -> list[SteadyRollingResult]:
@@ -1114,9 +1175,11 @@ class SteadyRolling:
         fpetsc.assemble_vector(reaction, self._F)
         reaction.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
         r = reaction.array_r.reshape(-1, self.gdim)[:, 0]
-        inflow, base = float(r[self._inflow_nodes].sum()), float(r[self._base_nodes].sum())
+        owned = self._owned_nodes
+        inflow, base = (self.comm.allreduce(float(r[nodes[nodes < owned]].sum()), MPI.SUM)
+                        for nodes in (self._inflow_nodes, self._base_nodes))
         reaction.destroy()
-        outflow = -float(fem.assemble_scalar(self._outflow_force))
+        outflow = -self._scalar(self._outflow_force)
         k = self.symmetry
         return HorizontalBalance(outflow_axial=k * outflow, inflow_axial=k * inflow, base_shear=-k * base)
 
@@ -1124,14 +1187,16 @@ class SteadyRolling:
         """``(x, u)`` of the displacement's nodes on the surface (in 3D on the centre line y = 0),
         ordered by x (m, m)."""
         X = self.V.tabulate_dof_coordinates()
-        n = self.V.dofmap.index_map.size_local
+        n = self._owned_nodes
         tol = 1e-9 * (self.x_in - self.x_out)
         on = np.abs(X[:n, self._up] - self.surface) < tol
         if self.gdim == 3:
             on &= np.abs(X[:n, 1]) < tol
         top = np.flatnonzero(on)
-        top = top[np.argsort(X[top, 0])]
-        return X[top, 0], self.u.x.array.reshape(-1, self.gdim)[top]
+        x = np.concatenate(self.comm.allgather(X[top, 0]))
+        u = np.concatenate(self.comm.allgather(self.u.x.array.reshape(-1, self.gdim)[top]))
+        order = np.argsort(x)
+        return x[order], u[order]
 
 
 def _levels(values: np.ndarray, tol: float) -> np.ndarray:

@@ -49,21 +49,31 @@ class SurfaceRows:
     gdim: int
 
     @classmethod
-    def of(cls, coordinates: np.ndarray, surface: float, tol: float) -> "SurfaceRows":
+    def of(cls, coordinates: np.ndarray, surface: float, tol: float, across: np.ndarray | None = None) -> "SurfaceRows":
         """The nodes at the height ``surface`` (m, tolerance ``tol``) of the node ``coordinates``
-        (n, gdim: the last the height), on a structured grid."""
+        (n, gdim: the last the height), on a structured grid.  3D: ``across`` are the transverse
+        coordinates of all the surface's rows (m; default: those of ``coordinates``), which the
+        rows' weights need when ``coordinates`` hold only some rows (one rank's)."""
         gdim = coordinates.shape[1]
         top = np.flatnonzero(np.abs(coordinates[:, -1] - surface) < tol)
-        across = np.round(coordinates[top, 1], 12) if gdim == 3 else np.zeros(len(top))
-        top = top[np.lexsort((-coordinates[top, 0], across))]
-        levels = np.unique(across)
+        if len(top) == 0:
+            return cls(np.zeros((0, 0), dtype=np.int64), np.zeros(0), np.zeros(0), np.zeros((0, 0)), gdim)
+        y = np.round(coordinates[top, 1], 12) if gdim == 3 else np.zeros(len(top))
+        top = top[np.lexsort((-coordinates[top, 0], y))]
+        levels = np.unique(y)
         if len(top) % len(levels):
             raise ValueError("the surface nodes are not a structured grid: rows of unequal length")
         nodes = top.reshape(len(levels), -1)
         x = coordinates[nodes[0], 0]
         if not np.allclose(coordinates[nodes, 0], x[None, :], atol=tol):
             raise ValueError("the surface nodes are not a structured grid: rows at different abscissae")
-        w = _simpson(x)[None, :] * (_simpson(levels)[:, None] if gdim == 3 else 1.0)
+        w = _simpson(x)[None, :]
+        if gdim == 3:
+            every = np.unique(np.round(levels if across is None else across, 12))
+            at = np.searchsorted(every, levels)
+            if np.any(at >= len(every)) or not np.array_equal(every[np.minimum(at, len(every) - 1)], levels):
+                raise ValueError("the surface rows are not among the transverse coordinates given (across)")
+            w = w * _simpson(every)[at][:, None]
         return cls(nodes, x, levels, w, gdim)
 
 
@@ -77,7 +87,7 @@ class SurfaceFriction:
         self.rows, self.wheel, self.mu, self.kappa = rows, wheel, float(mu), float(kappa)
         self.gdim = rows.gdim
         self.radius = wheel.diameter / 2
-        self._dx = np.diff(rows.x, prepend=rows.x[0])                  # (stations,), <= 0
+        self._dx = np.diff(rows.x, prepend=rows.x[:1])                  # (stations,), <= 0
         self._state = None
 
     def torque(self, forces: np.ndarray, dU: np.ndarray | None = None, dforces: np.ndarray | None = None) -> float:
@@ -126,6 +136,9 @@ class SurfaceFriction:
         ``U`` (m, (rows, stations, gdim)), the axle at ``axle_height`` above x = 0 (m), the
         undisturbed surface at ``surface`` (m), the wheel turning at ``spin``."""
         rows = self.rows
+        if rows.nodes.size == 0:                # none of the surface's rows (on this rank)
+            self._state = dict(P=np.zeros_like(U))
+            return np.zeros_like(U)
         P = U.copy()
         P[..., 0] += rows.x[None, :]
         if self.gdim == 3:
@@ -160,6 +173,8 @@ class SurfaceFriction:
         """The derivative of the last :meth:`sweep`'s nodal forces (N) for the surface nodes'
         displacement increment ``dU`` (m, (rows, stations, gdim)) and the spin's ``dspin``."""
         st = self._state
+        if self.rows.nodes.size == 0:
+            return np.zeros_like(dU)
         n, T, t, slip = st["n"], st["T"], st["t"], st["slip"]
         dn = np.einsum("rsij,rsj->rsi", st["hessian"], dU)
         dT = self._frame_derivative(n, T, dn)
