@@ -70,6 +70,11 @@ def pytest_collection_modifyitems(config, items):
     worker a block of consecutive tests, a quarter of its share; the long tests are dealt to those
     blocks, longest first to the least loaded, so no worker ends on a queue of them while another
     idles.  The other tests keep their file order."""
+    misplaced = [item.nodeid for item in items if item.get_closest_marker("end_to_end")
+                 and (not _runs_in_parallel(item) or item.get_closest_marker("slow"))]
+    if misplaced:
+        raise pytest.UsageError(f"end_to_end tests must run in the mpirun pass (take the communicator, not "
+                                f"slow or verification): {', '.join(misplaced)}")
     if MPI.COMM_WORLD.size > 1:
         takes = [_runs_in_parallel(item) for item in items]
         config.hook.pytest_deselected(items=[item for item, t in zip(items, takes) if not t])
@@ -78,6 +83,8 @@ def pytest_collection_modifyitems(config, items):
     known = json.loads(DURATIONS.read_text()) if DURATIONS.exists() else {}
 
     def cost(item) -> float:
+        if _skipped_for_the_mpi_pass(item):
+            return 0.0
         return known.get(item.nodeid, 60.0 if item.get_closest_marker("slow") else 0.0)
 
     long = sorted((item for item in items if cost(item) > 0), key=cost, reverse=True)
@@ -118,9 +125,17 @@ def pytest_sessionfinish(session):
         DURATIONS.write_text(json.dumps(long, indent=1) + "\n")
 
 
+def _skipped_for_the_mpi_pass(item) -> bool:
+    """An ``end_to_end`` test in a serial run that the mpirun pass follows (tools/test.sh)."""
+    return (item.get_closest_marker("end_to_end") is not None and MPI.COMM_WORLD.size == 1
+            and os.environ.get("ROLLSIM_MPI_PASS_FOLLOWS", "0") == "1")
+
+
 def pytest_runtest_setup(item):
     if item.get_closest_marker("serial") and MPI.COMM_WORLD.size > 1:
         pytest.skip("serial-only test")
+    if _skipped_for_the_mpi_pass(item):
+        pytest.skip("end-to-end: runs in the mpirun -n 2 pass that follows (tools/test.sh)")
     if (item.get_closest_marker("slow") and MPI.COMM_WORLD.size > 1
             and os.environ.get("ROLLSIM_SLOW_IN_PARALLEL", "0") != "1"):
         pytest.skip("slow: checked in the serial phase (ROLLSIM_SLOW_IN_PARALLEL=1 runs it here)")

@@ -652,6 +652,7 @@ def test_held_run_resumes_a_checkpoint_written_before_an_argument_existed(benchm
     assert roll.read == [ckpt]
 
 
+@pytest.mark.end_to_end
 def test_indentation_push_continues_from_its_last_complete_checkpoint(benchmarks, monkeypatch, tmp_mpi_path, comm):
     """The indentation benchmark writes its checkpoint whole at each reading stop: killed between
     the two renames that put the next version in place, it continues from the previous one and

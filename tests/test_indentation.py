@@ -233,6 +233,7 @@ def test_partition_independent_indentation(comm):
         assert a.QH == pytest.approx(b.QH, abs=1e-8 * abs(b.QV))
 
 
+@pytest.mark.end_to_end
 def test_checkpoint_continues_the_same_path(comm, tmp_mpi_path):
     """A push written to a checkpoint at s/d = 0.005 and continued by a new WheelIndentation (plastic
     von Mises soil, gravity, mu = 0.8: stresses, plastic strains and the friction history all

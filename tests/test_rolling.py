@@ -49,6 +49,7 @@ def _scene(friction=0.0, loading=None):
                         "model": {"accuracy": "fast"}})
 
 
+@pytest.mark.end_to_end
 def test_frictionless_rolling_run_directory(comm, tmp_mpi_path):
     """run_scene (rolling) writes the run directory; frictionless: zero axle moment (normal pressures pass
     through the axle), rolling resistance Q_H > 0, Q_V grows from the initial press as the sinkage
@@ -95,6 +96,7 @@ def _hexahedral_scene(across=None, travel=0.1 * D, along=None):
     return parse_scene(data)
 
 
+@pytest.mark.end_to_end
 def test_hexahedral_rolling_block_spans_the_wheel_with_the_elements_asked_for(comm, tmp_mpi_path):
     """[model] cell_type = "hexahedra": the refined strip's hexahedra are shortened across the path
     so that elements_across_wheel of them span the wheel's width (half of them on the half block),
@@ -285,6 +287,7 @@ def test_partition_independent_rolling(comm):
         assert a.rotation == pytest.approx(b.rotation, rel=1e-7, abs=1e-12)
 
 
+@pytest.mark.end_to_end
 def test_checkpoint_continues_the_roll(comm, tmp_mpi_path):
     """A roll ramping into plastic clay, written to a checkpoint after its first step and continued
     by a new WheelRolling (the rest of the travel and of the ramp), gives the uninterrupted run's
@@ -592,6 +595,7 @@ def _constant_load_scene(friction=0.0, yield_stress="200 kPa", load="100 kN", tr
 CL_BLOCK = {"length": 1.6, "half_width": 0.6, "depth": 0.6, "stiff_length": 0.5}   # in d
 
 
+@pytest.mark.end_to_end
 def test_failed_lift_off_keeps_the_rolling_result(comm, tmp_mpi_path, monkeypatch):
     """A lift-off that diverges after the rolling (unloading dense sand can) leaves the run ``ok``
     with its steady state, and says why the rut is missing."""
@@ -731,6 +735,7 @@ def test_interrupted_run_keeps_history_and_summary(comm, tmp_mpi_path, monkeypat
     comm.barrier()
 
 
+@pytest.mark.end_to_end
 def test_killed_rolling_run_continues_from_its_checkpoint(comm, tmp_mpi_path, monkeypatch):
     """A continuous roll on hexahedra (equal travel steps) with a checkpoint every second rolled
     step: killed hard after its third rolled step, run again it continues from the second; stopped
@@ -746,7 +751,7 @@ def test_killed_rolling_run_continues_from_its_checkpoint(comm, tmp_mpi_path, mo
     from rollsim.files import complete_directory
     from rollsim.solver import rundir
     from rollsim.solver.drivers.base import RollingRun
-    scene = _hexahedral_scene(8, travel=0.4 * D)
+    scene = _hexahedral_scene(8, travel=0.3 * D)
     kw = {"progress": False, "block": BLOCK, "initial_sinkage": 0.01 * D, "checkpoint_every": 2}
     whole = run_scene(scene, tmp_mpi_path / "whole", comm, **kw)
     assert whole["status"] == "ok" and "continued" not in whole

@@ -24,6 +24,7 @@ def _scene(max_sinkage="0.03 m", **layer):
                         "model": {"accuracy": "fast"}})
 
 
+@pytest.mark.end_to_end
 def test_run_scene_writes_the_run_directory(comm, tmp_mpi_path):
     scene = _scene()
     summary = run_scene(scene, tmp_mpi_path, comm, progress=False)
@@ -63,6 +64,7 @@ def test_refinement_replaces_the_preset_element_size(comm):
     assert 1.5 < cells[1] / cells[0] < 3.4, cells
 
 
+@pytest.mark.end_to_end
 def test_cell_average_volumetric_strain_reaches_the_solver(comm, tmp_mpi_path):
     """[model] volumetric_strain = "cell-average" runs B-bar: recorded in the summary, and it lowers
     the force of the (mildly locking) pointwise P2 tetrahedra at the same sinkage."""
@@ -122,6 +124,7 @@ def test_unknown_protocol_is_refused_with_the_key(comm, tmp_mpi_path):
         run_scene(other, tmp_mpi_path, comm, progress=False)
 
 
+@pytest.mark.end_to_end
 def test_divergence_is_reported_not_raised(comm, tmp_mpi_path, monkeypatch):
     """A solver failure after cutting ends with status failed + reason and the last converged state."""
     import rollsim.solver.indentation as ind
@@ -135,6 +138,7 @@ def test_divergence_is_reported_not_raised(comm, tmp_mpi_path, monkeypatch):
         assert s["status"] == "failed" and "diagnostics" in s
 
 
+@pytest.mark.end_to_end
 def test_failed_c0_run_names_both_remedies(comm, tmp_mpi_path, monkeypatch):
     """A failed run on a non-associated c = 0 layer kept exactly suggests the relaxation length
     (indentation: 0.01 mm) and the regularising cohesion; a von Mises soil gets neither."""

@@ -10,6 +10,8 @@ workers=${ROLLSIM_TEST_WORKERS:-2}
 start=$SECONDS
 echo "== serial ($workers workers)" >&2
 serial=0
+# The end_to_end tests run once, in the mpirun pass (pyproject.toml's markers).
+export ROLLSIM_MPI_PASS_FOLLOWS=1
 if [ "$workers" -gt 0 ]; then python -m pytest -n "$workers" "$@" || serial=$?
 else python -m pytest "$@" || serial=$?; fi
 echo "== serial pass: exit $serial, $((SECONDS - start)) s" >&2

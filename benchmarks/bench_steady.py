@@ -1,0 +1,131 @@
+"""Steady rolling (rollsim.solver.steady), two problems:
+
+``hertz``: against transient rolling on the same elements, plane strain, a Hertz line pressure
+(half-width a = 1 m) on von Mises soil (E = 1000 Pa, nu = 0.3, k = 1 Pa).  The steady solve in its
+window (6 a ahead, 10 a behind, 10 a deep) against the load moved step by step over a block of the
+same Q2 cells (the window with its fine zone stretched by the travel), solved incrementally with
+PlasticityProblem (tests/test_steady_rolling.py, ``transient_behind``).  Compared ``--distance``
+behind the load, where the soil has unloaded, each less the elastic soil's state under the same
+load on its own block (the load's elastic far field, which the two blocks' far faces shape
+differently): the residual sigma_xx and the plastic shear strain along the depth (largest
+magnitude, and the largest difference over the depth relative to it) and the residual settlement
+of the surface; wall time of each elastoplastic solve (set-up included) and their ratio, measured
+in this run.
+
+``ranks``: the Mn/DOT roller (mu = 0.8, held at xi = 1) on clay (von Mises, E = 40 MPa, c = 100
+kPa, gravity) at the sinkages ``--sinkage``, 3D half window of hexahedra; run under ``mpirun -n
+N``: the solve distributed over the N ranks, then the same solve on one rank (every rank at once,
+each on its own core), their wall times (set-up included) and the speed-up, the forces of the two.
+
+    python benchmarks/bench_steady.py hertz [--p0 3.6 4.5] [--cells-per-half-width 4]
+        [--travel 14] [--step 0.0625] [--distance 5] [--out bench_steady.json]
+    mpirun -n 2 python benchmarks/bench_steady.py ranks [--cells-per-half-width 2] [--sinkage 2.5 5]
+"""
+from __future__ import annotations
+
+import argparse
+from dataclasses import replace
+import pathlib
+import sys
+import time
+
+import numpy as np
+from mpi4py import MPI
+
+sys.path.insert(0, str(pathlib.Path(__file__).parents[1] / "tests"))
+from test_steady_rolling import (CLAY_3D, K, NEVER_YIELDS, ROLLER, SOIL, differences,  # noqa: E402
+                                 residual_part, steady, steady_behind, transient_behind)
+
+from _bench import dump_json  # noqa: E402
+from rollsim.solver.steady import RollingWindow, SteadyRolling, rolling_window_mesh  # noqa: E402
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    sub = ap.add_subparsers(dest="problem", required=True)
+    hertz = sub.add_parser("hertz", help="plane strain, Hertz line pressure: steady against transient")
+    hertz.add_argument("--p0", type=float, nargs="+", default=[3.6, 4.5], help="peak pressures / k")
+    hertz.add_argument("--cells-per-half-width", type=int, default=4)
+    hertz.add_argument("--travel", type=float, default=14.0, help="the transient load's travel / a")
+    hertz.add_argument("--step", type=float, default=0.0625, help="the transient load's step / a")
+    hertz.add_argument("--distance", type=float, default=5.0, help="where the states are compared, behind the load / a")
+    hertz.add_argument("--out")
+    ranks = sub.add_parser("ranks", help="3D roller on clay: the distributed solve against one rank's")
+    ranks.add_argument("--cells-per-half-width", type=int, default=2, help="cells per 0.15 m")
+    ranks.add_argument("--sinkage", type=float, nargs="+", default=[2.5, 5.0], help="mm, solved in turn")
+    args = ap.parse_args()
+    return hertz_against_transient(args) if args.problem == "hertz" else distributed_against_serial(args)
+
+
+def distributed_against_serial(args) -> int:
+    """The ``ranks`` problem (module docstring)."""
+    comm = MPI.COMM_WORLD
+    window = RollingWindow(half_width=0.15, ahead=0.45, behind=0.6, depth=0.45,
+                           cells_per_half_width=args.cells_per_half_width, across=0.45,
+                           load_half_width_across=ROLLER.width / 2)
+    found = {}
+    for name, cm in (("distributed", comm), ("one rank", MPI.COMM_SELF)):
+        comm.barrier()
+        t0 = time.perf_counter()
+        st = SteadyRolling(rolling_window_mesh(cm, window), CLAY_3D, wheel=ROLLER, friction=0.8, unit_weight=20e3)
+        runs = [st.solve_sinkage(s * 1e-3) for s in args.sinkage]
+        wall = comm.allreduce(time.perf_counter() - t0, MPI.MAX)
+        found[name] = (wall, runs, st.V.dofmap.index_map.size_global * st.gdim)
+    if comm.rank == 0:
+        (wall_n, runs_n, dofs), (wall_1, runs_1, _) = found["distributed"], found["one rank"]
+        print(f"3D roller on clay, {dofs} dofs, sinkages {args.sinkage} mm")
+        print(f"{'':<12} {'ranks':>5} {'wall (s)':>9} {'Newton':>7} {'GMRES':>6}   Q_V (kN) at each sinkage")
+        for label, wall, runs, n in (("distributed", wall_n, runs_n, comm.size), ("one rank", wall_1, runs_1, 1)):
+            print(f"{label:<12} {n:5d} {wall:9.1f} {sum(r.newton_iterations for r in runs):7d} "
+                  f"{sum(r.krylov_iterations for r in runs):6d}   "
+                  + " ".join(f"{r.vertical_force / 1e3:.6f}" for r in runs))
+        print(f"speed-up {wall_1 / wall_n:.2f}x on {comm.size} ranks")
+    return 0
+
+
+def hertz_against_transient(args) -> int:
+    """The ``hertz`` problem (module docstring)."""
+    window = RollingWindow(half_width=1.0, ahead=6.0, behind=10.0, depth=10.0,
+                           cells_per_half_width=args.cells_per_half_width)
+    print(f"h = a/{args.cells_per_half_width}, transient travel {args.travel:g} a in steps of {args.step:g} a, "
+          f"compared {args.distance:g} a behind the load", flush=True)
+    print(f"{'p0/k':>5} {'quantity':<30} {'steady':>11} {'transient':>11} {'difference':>11}")
+    results = []
+    for p0 in args.p0:
+        behind = {}
+        for material in (SOIL, NEVER_YIELDS):
+            t0 = time.perf_counter()                 # set-up and solve, as the transient's
+            st = steady(window, material)
+            behind[material] = replace(steady_behind(st, st.solve(p0 * K), args.distance),
+                                       wall_time=time.perf_counter() - t0)
+        s = residual_part(behind[SOIL], behind[NEVER_YIELDS])
+        elastic = transient_behind(window, NEVER_YIELDS, p0 * K, args.travel, args.travel, args.distance)
+        t = residual_part(transient_behind(window, SOIL, p0 * K, args.travel, args.step, args.distance), elastic)
+        diff = differences(s, t)
+        peak_sxx = int(np.argmax(np.abs(s.sigma_xx)))
+        peak_gp = int(np.argmax(np.abs(s.plastic_shear)))
+        rows = [("residual sigma_xx / k, largest", s.sigma_xx[peak_sxx] / K, t.sigma_xx[peak_sxx] / K, None),
+                ("  over the depth", None, None, diff["sigma_xx"]),
+                ("eps_p_xy, largest", s.plastic_shear[peak_gp], t.plastic_shear[peak_gp], None),
+                ("  over the depth", None, None, diff["plastic_shear"]),
+                ("residual settlement u_y / a", s.surface_displacement[1], t.surface_displacement[1], None),
+                ("wall time (s)", s.wall_time, t.wall_time, None),
+                ("  transient / steady", None, None, t.wall_time / s.wall_time)]
+        for name, a, b, d in rows:
+            if d is None:
+                d = (b - a) / abs(a) if a else float("nan")
+                text = f"{d:+10.1%}" if "wall" not in name else ""
+            else:
+                text = f"{d:10.1%}" if "/" not in name else f"{d:9.1f}x"
+            cells = [f"{v:11.4g}" if v is not None else " " * 11 for v in (a, b)]
+            print(f"{p0:5.2f} {name:<30} {cells[0]} {cells[1]} {text:>11}", flush=True)
+        results.append({"p0_over_k": p0, "depth": s.depth.tolist(), "differences": diff,
+                        **{name: {"sigma_xx": r.sigma_xx.tolist(), "plastic_shear": r.plastic_shear.tolist(),
+                                  "surface_displacement": r.surface_displacement.tolist(), "wall_time": r.wall_time}
+                           for name, r in (("steady", s), ("transient", t))}})
+    dump_json(MPI.COMM_WORLD, args.out, {"arguments": vars(args), "results": results})
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
