@@ -415,8 +415,11 @@ class SteadyRolling:
         self.D = elastic_stiffness(material, self.ncomp)
         self._D_inv = np.linalg.inv(self.D)
         x, comm = mesh.geometry.x, self.comm
-        self.x_in, self.surface = comm.allreduce(float(x[:, 0].max()), MPI.MAX), comm.allreduce(float(x[:, self._up].max()), MPI.MAX)
-        self.x_out, self.base = comm.allreduce(float(x[:, 0].min()), MPI.MIN), comm.allreduce(float(x[:, self._up].min()), MPI.MIN)
+        #: the abscissae of the window's columns of vertices (m, all ranks'), from the rear face
+        self._columns = np.unique(np.concatenate(comm.allgather(np.unique(np.round(x[:, 0], 12)))))
+        self.x_in, self.x_out = float(self._columns[-1]), float(self._columns[0])
+        self.surface = comm.allreduce(float(x[:, self._up].max()), MPI.MAX)
+        self.base = comm.allreduce(float(x[:, self._up].min()), MPI.MIN)
         self._init_spaces(degree)
         ds = self._init_boundary()
         K = self._init_forms(ds, degree, penalty, unit_weight)
@@ -440,6 +443,8 @@ class SteadyRolling:
         self._du = fem.Function(self.V)
         #: the rank's owned nodes of the displacement (the first of its local nodes; ghosts follow)
         self._owned_nodes = self.V.dofmap.index_map.size_local
+        #: the global number of this rank's first dof (PETSc's numbering)
+        self._dof_offset = self.V.dofmap.index_map.local_range[0] * self.V.dofmap.index_map_bs
         self.n_cells = mesh.topology.index_map(mesh.topology.dim).size_local
         points = compat.quadrature_points(mesh, self.qdeg)
         self._n_points = points.shape[0]
@@ -485,7 +490,7 @@ class SteadyRolling:
             self._fixed = np.union1d(self._fixed, lateral)
         owned = self._fixed[self._fixed < self._owned_nodes * bs]
         #: the fixed dofs owned here, numbered globally (PETSc's rows)
-        self._fixed_global = (owned + self.V.dofmap.index_map.local_range[0] * bs).astype(PETSc.IntType)
+        self._fixed_global = (owned + self._dof_offset).astype(PETSc.IntType)
         facets = np.concatenate([top, rear])
         tags = np.concatenate([np.full(len(top), 1, np.int32), np.full(len(rear), 2, np.int32)])
         order = np.argsort(facets)
@@ -508,7 +513,7 @@ class SteadyRolling:
             load = pressure * v[up] * ds_top
         else:
             self.axle_height = fem.Constant(mesh, PETSc.ScalarType(self.surface + wheel.diameter / 2))
-            h = self.comm.allreduce(float(np.diff(np.unique(np.round(mesh.geometry.x[:, 0], 12))).min()), MPI.MIN)
+            h = float(np.diff(self._columns).min())
             self.kappa = penalty * self.material.E / h
             axle = ufl.as_vector([0.0] * up + [self.axle_height])
             gap, normal = ufl_signed_distance(wheel, X + self.u - axle)
@@ -572,8 +577,7 @@ class SteadyRolling:
             raise ValueError("the quadrature points do not form streamlines of equal length: the mesh must be "
                              "a structured grid of cells aligned with x (rolling_window_mesh)")
         table = np.array([r[np.argsort(-xq[r], kind="stable")] for r in rows]).reshape(len(rows), -1)
-        columns = np.unique(np.concatenate(self.comm.allgather(np.unique(np.round(self.mesh.geometry.x[:, 0], 12)))))
-        stations = (len(columns) - 1) * round(self._n_points ** (1.0 / self.gdim))
+        stations = (len(self._columns) - 1) * round(self._n_points ** (1.0 / self.gdim))
         if self.comm.allreduce(table.shape[1] != stations, MPI.LOR):
             raise ValueError(f"the streamlines are cut between ranks (the window has {stations} stations along "
                              "each): each rank must own whole rows of cells along x (rolling_window_mesh's "
@@ -624,8 +628,7 @@ class SteadyRolling:
         X = self.V.tabulate_dof_coordinates()
         index_map, bs = self.V.dofmap.index_map, self.V.dofmap.index_map_bs
         n_nodes = self._owned_nodes
-        vertex_x = np.unique(np.round(self.mesh.geometry.x[:, 0], 12))
-        x_tie = vertex_x[1]
+        x_tie = self._columns[1]
         tol = 1e-9 * (self.x_in - self.x_out)
         rear = np.setdiff1d(np.flatnonzero(X[:n_nodes, 0] < x_tie - tol), self._fixed_nodes)
         front = np.flatnonzero(np.abs(X[:, 0] - x_tie) < tol)      # owned or ghost: the rows are whole
@@ -642,15 +645,15 @@ class SteadyRolling:
         n = n_nodes * bs
         size = ((n, PETSc.DECIDE), (n, PETSc.DECIDE))
         global_nodes = index_map.local_to_global(np.arange(len(X), dtype=np.int32))
-        cols = np.arange(n) + index_map.local_range[0] * bs
+        own = (np.arange(n) + self._dof_offset).astype(PETSc.IntType)
+        cols = own.copy()
         slaves = (rear[:, None] * bs + np.arange(bs)).reshape(-1)
         cols[slaves] = (global_nodes[master][:, None] * bs + np.arange(bs)).reshape(-1)
         rows = np.arange(n + 1, dtype=PETSc.IntType)
-        P = PETSc.Mat().createAIJWithArrays(size, (rows, cols.astype(PETSc.IntType), np.ones(n)), comm=self.comm)
+        P = PETSc.Mat().createAIJWithArrays(size, (rows, cols, np.ones(n)), comm=self.comm)
         self._slaves = slaves
         diagonal = np.zeros(n)
         diagonal[slaves] = 1.0
-        own = (np.arange(n) + index_map.local_range[0] * bs).astype(PETSc.IntType)
         self._tied_ones = PETSc.Mat().createAIJWithArrays(size, (rows, own, diagonal), comm=self.comm)
         return P
 
@@ -681,13 +684,15 @@ class SteadyRolling:
             if self.gdim == 3 else None
         rows = SurfaceRows.of(X, self.surface, tol, across)
         dofs = rows.nodes[..., None] * self.V.dofmap.index_map_bs + np.arange(self.gdim)
-        self._surface_free = ~np.isin(dofs, self._fixed) & (rows.nodes < self._owned_nodes)[..., None]
+        #: which of the rows' nodes this rank owns
+        self._surface_owned = rows.nodes < self._owned_nodes
+        self._surface_free = ~np.isin(dofs, self._fixed) & self._surface_owned[..., None]
         return SurfaceFriction(rows, self.wheel, self.friction, self.kappa)
 
     def _owned(self, forces: np.ndarray) -> np.ndarray:
         """The friction's nodal ``forces`` ((rows, stations, gdim)) on this rank's own nodes (zero on
         its ghosts: their owners count them)."""
-        return np.where((self._friction.rows.nodes < self._owned_nodes)[..., None], forces, 0.0)
+        return np.where(self._surface_owned[..., None], forces, 0.0)
 
     def _friction_torque(self, forces: np.ndarray, dU: np.ndarray | None = None,
                          dforces: np.ndarray | None = None) -> float:
@@ -1084,7 +1089,9 @@ class SteadyRolling:
         return SteadyRollingResult(peak_pressure=None, newton_iterations=it,
                                    krylov_iterations=self._counts["krylov"], sweeps=self._counts["sweeps"],
                                    wall_time=time.perf_counter() - t0, outflow=outflow,
-                                   max_accumulated_plastic_strain=self.comm.allreduce(float(ACC.max(initial=0.0)), MPI.MAX), residual_norms=history)
+                                   max_accumulated_plastic_strain=self.comm.allreduce(float(ACC.max(initial=0.0)),
+                                                                                      MPI.MAX),
+                                   residual_norms=history)
 
     def _krylov(self, rhs: PETSc.Vec, scale: float) -> np.ndarray:
         """The full displacement increment ``P x`` of ``P^T J P x = rhs`` (GMRES, to the absolute
