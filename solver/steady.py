@@ -55,8 +55,10 @@ from petsc4py import PETSc
 from rollsim import compat
 from rollsim.log import get_logger
 
+from .cell_average import CellProjection
 from .contact import DEFAULT_PENALTY, Circle, ufl_signed_distance
 from .materials import admissible_k0
+from .options import DEFAULT_VOLUMETRIC_STRAIN, VOLUMETRIC_STRAINS
 from .problem import mandel_strain
 from .return_map import elastic_stiffness, return_map
 from .steady_friction import SurfaceFriction, SurfaceRows
@@ -335,7 +337,8 @@ class HorizontalBalance:
         return self.outflow_axial - self.inflow_axial + self.base_shear
 
 
-def _check_arguments(mesh, half_width, wheel, penalty, friction, preconditioner, unit_weight) -> None:
+def _check_arguments(mesh, half_width, wheel, penalty, friction, preconditioner, unit_weight,
+                     volumetric_strain) -> None:
     """The arguments of :class:`SteadyRolling` that it refuses, with the reason."""
     gdim = mesh.geometry.dim
     cells = {2: "quadrilateral", 3: "hexahedron"}.get(gdim)
@@ -362,6 +365,8 @@ def _check_arguments(mesh, half_width, wheel, penalty, friction, preconditioner,
         raise ValueError(f"preconditioner must be 'tangent' or 'elastic', got {preconditioner!r}")
     if not (math.isfinite(unit_weight) and unit_weight >= 0):
         raise ValueError(f"unit_weight must be >= 0 (N/m^3), got {unit_weight!r}")
+    if volumetric_strain not in VOLUMETRIC_STRAINS:
+        raise ValueError(f"volumetric_strain must be one of {', '.join(VOLUMETRIC_STRAINS)}, got {volumetric_strain!r}")
 
 
 class SteadyRolling:
@@ -389,14 +394,20 @@ class SteadyRolling:
     integration).  ``petsc_options`` override :data:`DEFAULT_STEADY_OPTIONS` under
     ``options_prefix``; ``preconditioner``: ``"tangent"`` (the LU of the local consistent tangent,
     refactored at each Newton iteration) or ``"elastic"`` (of the elastic stiffness).
+    ``volumetric_strain``: ``"cell-average"`` (B-bar, as :class:`PlasticityProblem`'s: the trace
+    of every strain and of the stress's change from the inflow state projected per cell onto the
+    linear functions, Q2-P1, :mod:`rollsim.solver.cell_average`) or ``"pointwise"``.
     """
 
     def __init__(self, mesh, material, half_width: float | None = None, *, wheel: Circle | None = None,
                  penalty: float = DEFAULT_PENALTY, friction: float = 0.0, degree: int = 2,
                  quadrature_degree: int | None = None, unit_weight: float = 0.0, K0: float | None = None,
                  control: NewtonKrylovControl | None = None, petsc_options: dict | None = None,
-                 options_prefix: str = "rollsim_steady_", preconditioner: str = "tangent"):
-        _check_arguments(mesh, half_width, wheel, penalty, friction, preconditioner, unit_weight)
+                 options_prefix: str = "rollsim_steady_", preconditioner: str = "tangent",
+                 volumetric_strain: str = DEFAULT_VOLUMETRIC_STRAIN):
+        _check_arguments(mesh, half_width, wheel, penalty, friction, preconditioner, unit_weight,
+                         volumetric_strain)
+        self.volumetric_strain = volumetric_strain
         self.comm = mesh.comm
         self.mesh, self.material, self.wheel = mesh, material, wheel
         gdim = mesh.geometry.dim
@@ -544,11 +555,23 @@ class SteadyRolling:
         self._tie = self._rear_tie()
         self.preconditioner = preconditioner
         self._tangent_form = None
+        nc = self.ncomp
+        Ct = ufl.as_matrix(self.D.tolist())
         if preconditioner == "tangent":
-            nc = self.ncomp
             self._tangent_fn = fem.Function(compat.quadrature_space(self.mesh, self.qdeg, (nc * nc,)))
             Ct = ufl.as_matrix([[self._tangent_fn[i * nc + j] for j in range(nc)] for i in range(nc)])
-            self._tangent_form = fem.form(ufl.inner(ufl.dot(Ct, self._eps_w), self._eps_v) * self._dx)
+        #: B-bar's projection of the volumetric strain per cell (None: pointwise)
+        self._projection = None
+        eps_w, eps_v = self._eps_w, self._eps_v
+        if self.volumetric_strain == "cell-average":
+            strain = lambda w: mandel_strain(w, self.gdim)                    # noqa: E731
+            self._projection = CellProjection(self.mesh, self.V, strain, Ct, 1.0, self._dx,
+                                              compat.quadrature_rule(self.mesh, self.qdeg), self.n_cells,
+                                              degree=1, fixed_configuration=True)
+            e = self._projection.deviatoric(strain)
+            eps_w, eps_v = e(ufl.TrialFunction(self.V)), e(ufl.TestFunction(self.V))
+        if preconditioner == "tangent":      # pointwise part; B-bar's couplings within the cells are added
+            self._tangent_form = fem.form(ufl.inner(ufl.dot(Ct, eps_w), eps_v) * self._dx)
         #: the preconditioner factored once (the elastic stiffness under a Hertz pressure), else
         #: refilled at each Newton iteration into :attr:`_preconditioner_full`'s pattern
         self._elastic_matrix = self._elastic_full = self._preconditioner_full = None
@@ -763,7 +786,7 @@ class SteadyRolling:
 
     def _sweep(self, inflow: StreamlineState) -> None:
         """March the return map along the streamlines at the current displacement."""
-        strain = self._point_values(self._strain_expr)[self._order]             # (rows, stations, 4)
+        strain = self._projected(self._point_values(self._strain_expr))[self._order]   # (rows, stations, 4)
         rows, stations, _ = strain.shape
         sigma, eps_p = inflow.stress.copy(), inflow.plastic_strain.copy()
         acc = inflow.accumulated_plastic_strain.copy()
@@ -781,12 +804,26 @@ class SteadyRolling:
         self._fields = (S, EP, ACC)
         self._tangent = C
         self._upstream = C @ self._D_inv           # d sigma_i / d sigma_{i-1}
+        if self._projection is not None:           # the residual's stress: B-bar acts on the change
+            S = self._stress_bar(S, inflow.stress[:, None, :])
         self._store(self._sigma, S)
         self._store_traction(self._traction, S[:, -1])
 
+    def _projected(self, values: np.ndarray) -> np.ndarray:
+        """Mandel strains at the quadrature points (flat order) with B-bar's projected trace (as
+        they are when pointwise)."""
+        return values if self._projection is None else self._projection.projected(values)
+
+    def _stress_bar(self, stress: np.ndarray, reference) -> np.ndarray:
+        """The residual's stress of the (rows, stations, components) ``stress``: ``reference +
+        projected(stress - reference)``, in the same layout."""
+        change = np.empty((self.n_qp, self.ncomp))
+        change[self._order] = stress - reference
+        return self._projection.projected(change)[self._order] + reference
+
     def _tangent_sweep(self) -> None:
         """The sweep's directional derivative for the displacement increment in ``self._du``."""
-        dstrain = self._point_values(self._dstrain_expr)[self._order]
+        dstrain = self._projected(self._point_values(self._dstrain_expr))[self._order]
         local = np.einsum("rsij,rsj->rsi", self._tangent, np.diff(dstrain, axis=1, prepend=0.0))
         dsigma = np.empty_like(dstrain)
         ds = np.zeros(dstrain[:, 0].shape)
@@ -794,6 +831,8 @@ class SteadyRolling:
             ds = np.einsum("rij,rj->ri", self._upstream[:, i], ds) + local[:, i]
             dsigma[:, i] = ds
         self._counts["sweeps"] += 1
+        if self._projection is not None:
+            dsigma = self._stress_bar(dsigma, 0.0)
         self._store(self._dsigma, dsigma)
         self._store_traction(self._dtraction, dsigma[:, -1])
 
@@ -828,10 +867,15 @@ class SteadyRolling:
             self._contact_matrix.zeroRowsColumns(self._fixed_global, diag=0.0)
         M = self._preconditioner_full
         if self._tangent_form is not None:
-            self._store(self._tangent_fn, self._tangent.reshape(*self._tangent.shape[:2], -1))
+            tangent = self._tangent.reshape(*self._tangent.shape[:2], -1)
+            self._store(self._tangent_fn, tangent)
             M.zeroEntries()
             fpetsc.assemble_matrix(M, self._tangent_form, bcs=self.bcs)
             M.assemble()
+            if self._projection is not None:
+                flat = np.empty((self.n_qp, tangent.shape[-1]))
+                flat[self._order] = tangent
+                self._projection.add_jacobian(M, self.bcs, flat)
         else:
             self._elastic_full.copy(M, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
         if self._contact_matrix is not None:

@@ -16,7 +16,7 @@ from petsc4py import PETSc
 
 from rollsim import compat
 from rollsim.geometry import CylinderWheel
-from rollsim.solver import VonMises
+from rollsim.solver import DruckerPrager, VonMises
 from rollsim.solver.contact import Circle, RigidWheelContact
 from rollsim.solver.problem import PlasticityProblem, mandel_strain
 from rollsim.solver.return_map import elastic_stiffness, invariants
@@ -203,6 +203,74 @@ def test_elastic_steady_state_is_the_static_solution():
     heavy.solve(1.0)
     assert np.abs(heavy.u.x.array - st.u.x.array).max() <= 1e-6 * scale
     assert heavy.stress[:, 1].min() < -100.0          # the geostatic stress is there (20 N/m^3, 6 m deep)
+
+
+@pytest.mark.serial
+def test_elastic_steady_state_with_b_bar_is_the_static_b_bar_solution():
+    """B-bar carries over: with the cell-average volumetric strain the elastic steady state is the
+    static solution of :class:`PlasticityProblem` with the same volumetric strain on the same mesh
+    (last column of cells held at the steady displacement), and differs from the pointwise one; the
+    geostatic stress, which B-bar leaves alone (it acts on the change), changes nothing."""
+    window = RollingWindow(half_width=1.0, ahead=4.0, behind=6.0, depth=6.0, cells_per_half_width=2)
+    soft = VonMises(E=1000.0, nu=0.45, yield_stress=1e12)
+    st = steady(window, soft, volumetric_strain="cell-average")
+    st.solve(1.0)
+    msh = st.mesh
+    pb = PlasticityProblem(msh, soft, volumetric_strain="cell-average")
+    x_tie = np.unique(msh.geometry.x[:, 0])[1]
+    held = fem.locate_dofs_geometrical(pb.V, lambda p: (p[0] <= x_tie + 1e-9) | np.isclose(p[0], st.x_in)
+                                       | np.isclose(p[1], st.base))
+    u_held = fem.Function(pb.V)
+    pb.bcs = [fem.dirichletbc(u_held, held)]
+    fdim = msh.topology.dim - 1
+    top = dmesh.locate_entities_boundary(msh, fdim, lambda p: np.isclose(p[1], 0.0))
+    ds = ufl.Measure("ds", domain=msh, subdomain_data=dmesh.meshtags(msh, fdim, np.sort(top),
+                                                                     np.ones(len(top), np.int32)))
+    peak = fem.Constant(msh, 0.0)
+    X = ufl.SpatialCoordinate(msh)
+    pb.add_residual_term(peak * ufl.sqrt(ufl.max_value(1.0 - X[0] ** 2, 0.0)) * pb.test_function[1]
+                         * ds(1, metadata={"quadrature_degree": 12}))
+
+    def load(t):
+        peak.value = t
+        u_held.x.array[:] = t * st.u.x.array
+
+    solve_load_path(pb, load, StepControl(dt=1.0, dt_max=1.0, dt_min=0.25))
+    scale = np.abs(st.u.x.array).max()
+    assert np.abs(st.u.x.array - pb.u.x.array).max() <= 1e-6 * scale
+    pointwise = steady(window, soft)
+    pointwise.solve(1.0)
+    assert np.abs(pointwise.u.x.array - st.u.x.array).max() > 1e-3 * scale
+
+    heavy = steady(window, soft, unit_weight=20.0, K0=0.5, volumetric_strain="cell-average")
+    heavy.solve(1.0)
+    assert np.abs(heavy.u.x.array - st.u.x.array).max() <= 1e-6 * scale
+
+
+@pytest.mark.serial
+def test_b_bar_jacobian_action_is_the_derivative_of_the_residual():
+    """With B-bar in the plastic range of a Drucker-Prager soil (non-associated: its yield depends
+    on the projected pressure) the Jacobian action (the sweep's tangent-linear action through
+    yielded stations) equals central differences of the residual."""
+    soil = DruckerPrager(E=1000.0, nu=0.3, phi_dp=math.radians(20.0), c_dp=1.0, dilation=math.radians(5.0))
+    st = steady(RollingWindow(half_width=1.0, ahead=4.0, behind=6.0, depth=6.0, cells_per_half_width=2), soil,
+                volumetric_strain="cell-average")
+    assert st.solve(4.0).max_accumulated_plastic_strain > 1e-3
+    x = st._b.duplicate()
+    x.array[:] = np.random.default_rng(0).normal(size=x.array.shape)
+    x.array[np.concatenate([st._fixed[st._fixed < len(x.array)], st._slaves])] = 0.0
+    exact = st._b.duplicate()
+    st.residual(st.inflow)
+    st.jacobian_action(x, exact)
+    du = st._full.duplicate()
+    st._tie.mult(x, du)
+    u0, h = st.u.x.array.copy(), 1e-7 * np.abs(st.u.x.array).max() / np.abs(du.array).max()
+    sides = []
+    for sign in (1.0, -1.0):
+        st.u.x.array[: len(du.array)] = u0[: len(du.array)] + sign * h * du.array
+        sides.append(st.residual(st.inflow).array.copy())
+    difference = (sides[0] - sides[1]) / (2 * h)
+    assert np.abs(difference - exact.array).max() <= 1e-4 * np.abs(exact.array).max()
 
 
 @pytest.mark.serial
