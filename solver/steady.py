@@ -260,11 +260,14 @@ def rolling_window_mesh(comm: MPI.Comm, window: RollingWindow):
 class NewtonKrylovControl:
     """Global iteration of a steady solve: Newton converged when the residual's norm is below
     ``rtol`` times the load vector's; at most ``max_iterations`` Newton steps; each step
-    backtracked (halved) down to ``min_step`` until the residual's norm decreases."""
+    backtracked (halved) down to ``min_step`` until the residual's norm decreases.  The
+    preconditioner is factored at the first Newton step of a solve and again after a step whose
+    GMRES needed more than ``refactor_iterations`` iterations (0: at every step)."""
 
     rtol: float = 1e-8
     max_iterations: int = 30
     min_step: float = 1.0 / 64
+    refactor_iterations: int = 30
 
     def __post_init__(self):
         if not 0 < self.rtol < 1:
@@ -273,6 +276,8 @@ class NewtonKrylovControl:
             raise ValueError(f"max_iterations must be an integer >= 1, got {self.max_iterations!r}")
         if not 0 < self.min_step <= 1:
             raise ValueError(f"min_step must lie in (0, 1], got {self.min_step!r}")
+        if not (isinstance(self.refactor_iterations, int) and self.refactor_iterations >= 0):
+            raise ValueError(f"refactor_iterations must be an integer >= 0, got {self.refactor_iterations!r}")
 
 
 @dataclass(frozen=True)
@@ -420,6 +425,8 @@ class SteadyRolling:
         #: rolling without slip on a rigid surface)
         self.spin = 1.0
         self._last_sinkage: float | None = None
+        #: the displacements of the last two sinkages solved (m; the predictor's secant)
+        self._converged: list[tuple[float, np.ndarray]] = []
         self.half_width = None if half_width is None else float(half_width)
         self.control = control or NewtonKrylovControl()
         self.qdeg = 2 * degree if quadrature_degree is None else quadrature_degree
@@ -432,6 +439,8 @@ class SteadyRolling:
         self.surface = comm.allreduce(float(x[:, self._up].max()), MPI.MAX)
         self.base = comm.allreduce(float(x[:, self._up].min()), MPI.MIN)
         self._init_spaces(degree)
+        if wheel is not None:                  # the undisturbed soil: the wheel touching the surface
+            self._converged.append((0.0, self.u.x.array.copy()))
         ds = self._init_boundary()
         K = self._init_forms(ds, degree, penalty, unit_weight)
         self._init_preconditioner(K, preconditioner)
@@ -854,10 +863,10 @@ class SteadyRolling:
         self._tie.multTranspose(self._full, self._b)
         return self._b
 
-    def _update_preconditioner(self) -> None:
-        """The contact's stiffness at the current displacement, in the Jacobian action and the
-        preconditioner; the preconditioner (the elastic stiffness, or the return map's local
-        tangent, plus the contact's) factored again."""
+    def _update_preconditioner(self, refactor: bool = True) -> None:
+        """The contact's stiffness at the current displacement, in the Jacobian action and (with
+        ``refactor``) the preconditioner; the preconditioner (the elastic stiffness, or the return
+        map's local tangent, plus the contact's) then factored again."""
         if self._contact_stiffness is not None:
             if self._contact_matrix is not None:
                 self._contact_matrix.destroy()
@@ -865,6 +874,8 @@ class SteadyRolling:
             self._contact_matrix = fpetsc.assemble_matrix(self._contact_stiffness)
             self._contact_matrix.assemble()
             self._contact_matrix.zeroRowsColumns(self._fixed_global, diag=0.0)
+        if not refactor and self._preconditioner_matrix is not None:
+            return
         M = self._preconditioner_full
         if self._tangent_form is not None:
             tangent = self._tangent.reshape(*self._tangent.shape[:2], -1)
@@ -920,8 +931,9 @@ class SteadyRolling:
                       max_cuts: int = 4) -> SteadyRollingResult:
         """The steady state under the rigid wheel with its lowest point ``sinkage`` (m) below the
         undisturbed surface, turning at :attr:`spin`, with the contact's forces and torque on it;
-        Newton starts from the last solve's displacement (continuation: step the sinkage up).
-        When Newton fails on the way down from the last solve's sinkage (or from the surface), the
+        Newton starts from the last solve's displacement (continuation: step the sinkage up),
+        extrapolated along the secant of the last two sinkages solved when it is the last of them
+        (by at most their distance).  When Newton fails on the way down from the last solve's sinkage (or from the surface), the
         step is halved, from the last converged state, up to ``max_cuts`` times.  ``inflow`` as
         in :meth:`solve`."""
         if self.wheel is None:
@@ -932,6 +944,7 @@ class SteadyRolling:
             raise ValueError(f"max_cuts must be an integer >= 0, got {max_cuts!r}")
         start = 0.0 if self._last_sinkage is None else self._last_sinkage
         u0 = self.u.x.array.copy()
+        self._predict(sinkage)
         try:
             return self._solve_sinkage(sinkage, inflow)
         except NoSteadyState as err:
@@ -943,9 +956,22 @@ class SteadyRolling:
             self.solve_sinkage(middle, inflow, max_cuts=max_cuts - 1)
             return self.solve_sinkage(sinkage, inflow, max_cuts=max_cuts - 1)
 
+    def _predict(self, sinkage: float) -> None:
+        """Secant predictor: when the displacement is that of the last sinkage solved and the two
+        last sinkages lie below ``sinkage``, move it along their secant (at most one of their steps)."""
+        if len(self._converged) < 2:
+            return
+        (s0, u0), (s1, u1) = self._converged
+        current = self.comm.allreduce(bool(np.array_equal(self.u.x.array, u1)), MPI.LAND)
+        if current and s0 < s1 < sinkage:
+            self.u.x.array[:] = u1 + min((sinkage - s1) / (s1 - s0), 1.0) * (u1 - u0)
+
     def _solve_sinkage(self, sinkage: float, inflow: StreamlineState | None) -> SteadyRollingResult:
         self.axle_height.value = self.surface + self.wheel.diameter / 2 - sinkage
         result = self._newton(inflow, f"at the sinkage {sinkage:.6g} m")
+        if self._converged and self._converged[-1][0] == sinkage:
+            self._converged.pop()
+        self._converged = (self._converged + [(float(sinkage), self.u.x.array.copy())])[-2:]
         result.sinkage = self._last_sinkage = float(sinkage)
         result.vertical_force = self.symmetry * self._scalar(self._vertical_force)
         result.towing_force = self.symmetry * self._scalar(self._towing_force)
@@ -1105,7 +1131,8 @@ class SteadyRolling:
                 self._fail(load_text, f"Newton-Krylov did not converge in {it} iterations (residual "
                                       f"{history[-1]:.2e} of the load's, wanted {ctl.rtol:.0e})")
             if self.wheel is not None or self._tangent_form is not None:
-                self._update_preconditioner()
+                # the factorization is kept while GMRES converges quickly on it (the action is exact)
+                self._update_preconditioner(it == 0 or self._ksp.getIterationNumber() > self.control.refactor_iterations)
             rhs = b.copy()
             rhs.scale(-1.0)
             du = self._krylov(rhs, scale)
@@ -1157,7 +1184,7 @@ class SteadyRolling:
         """At a converged state (that of the last residual): the displacement's derivative with the
         spin ``c`` (``J c = -dR/dxi``) and the axle torque's total derivative ``T_xi + T_u c`` (N m
         per unit spin, the half window's)."""
-        self._update_preconditioner()
+        self._update_preconditioner(refactor=False)
         friction, force = self._friction, self._friction_force
         zero = np.zeros(friction.rows.nodes.shape + (self.gdim,))
         d_spin = friction.tangent(zero, dspin=1.0)
