@@ -17,9 +17,16 @@ kPa, gravity) at the sinkages ``--sinkage``, 3D half window of hexahedra; run un
 N``: the solve distributed over the N ranks, then the same solve on one rank (every rank at once,
 each on its own core), their wall times (set-up included) and the speed-up, the forces of the two.
 
+``clay``: the frictionless Mn/DOT cylinder (d = 1.524 m) towed in plane strain over clay (von
+Mises, E = 40 MPa, nu = 0.35, q_y = 200 kPa, gravity), pointwise and B-bar, the sinkage stepped
+up (halved where Newton fails) to each of ``--sinkage``: Q_V per metre, the highest heave of the
+surface ahead of the wheel, the surface's forward displacement at the rear face, the largest
+accumulated plastic strain and its depth, the contact's extent along the centre line.
+
     python benchmarks/bench_steady.py hertz [--p0 3.6 4.5] [--cells-per-half-width 4]
         [--travel 14] [--step 0.0625] [--distance 5] [--out bench_steady.json]
     mpirun -n 2 python benchmarks/bench_steady.py ranks [--cells-per-half-width 2] [--sinkage 2.5 5]
+    python benchmarks/bench_steady.py clay [--sinkage 2 3 4] [--cells-per-half-width 4]
 """
 from __future__ import annotations
 
@@ -53,8 +60,48 @@ def main() -> int:
     ranks = sub.add_parser("ranks", help="3D roller on clay: the distributed solve against one rank's")
     ranks.add_argument("--cells-per-half-width", type=int, default=2, help="cells per 0.15 m")
     ranks.add_argument("--sinkage", type=float, nargs="+", default=[2.5, 5.0], help="mm, solved in turn")
+    clay = sub.add_parser("clay", help="plane strain, towed cylinder on clay: the surface layer")
+    clay.add_argument("--sinkage", type=float, nargs="+", default=[2.0, 3.0, 4.0], help="mm, in turn")
+    clay.add_argument("--cells-per-half-width", type=int, default=4, help="cells per 0.06 m")
     args = ap.parse_args()
-    return hertz_against_transient(args) if args.problem == "hertz" else distributed_against_serial(args)
+    run = {"hertz": hertz_against_transient, "ranks": distributed_against_serial, "clay": clay_surface_layer}
+    return run[args.problem](args)
+
+
+def clay_surface_layer(args) -> int:
+    from rollsim.solver.contact import Circle
+    from rollsim.solver.materials import VonMises
+    from rollsim.solver.steady import NoSteadyState
+    clay, R = VonMises(E=40e6, nu=0.35, yield_stress=200e3), 0.762
+    window = RollingWindow(half_width=0.06, ahead=0.9, behind=1.2, depth=0.9,
+                           cells_per_half_width=args.cells_per_half_width)
+    print("strain        s (mm)  Q_V (kN/m)  heave ahead (mm)  u_x at rear (mm)  max eps_p  at depth (mm)  "
+          "contact x (mm)  time (s)")
+    for strain in ("pointwise", "cell-average"):
+        st = SteadyRolling(rolling_window_mesh(MPI.COMM_SELF, window), clay, wheel=Circle(diameter=2 * R),
+                           unit_weight=20e3, volumetric_strain=strain)
+        t0, s, step = time.perf_counter(), 0.0, 1e-3
+        for target in np.array(args.sinkage) * 1e-3:
+            while s < target - 1e-12 and step > 1e-6:
+                u0, last = st.u.x.array.copy(), st._last_sinkage
+                try:
+                    res = st.solve_sinkage(min(s + step, target), max_cuts=0)
+                    s, step = res.sinkage, min(1.5 * step, 2e-3)
+                except NoSteadyState:
+                    st.u.x.array[:], st._last_sinkage, step = u0, last, 0.5 * step
+            if s < target - 1e-12:
+                print(f"{strain:12s}  no steady state found past {1e3 * s:.3f} mm")
+                break
+            x, u = st.surface_displacement()
+            gap = np.hypot(x + u[:, 0], st.surface + u[:, 1] - (st.surface + R - s)) - R
+            touching = x[gap < 0]
+            acc = st.accumulated_plastic_strain
+            depth = st.surface - st.quadrature_coordinates[acc.argmax(), 1]
+            print(f"{strain:12s}  {1e3 * s:6.2f}  {res.vertical_force / 1e3:10.1f}  {1e3 * u[x > 0, 1].max():16.2f}  "
+                  f"{1e3 * u[0, 0]:16.2f}  {acc.max():9.3f}  {1e3 * depth:13.1f}  "
+                  f"{1e3 * touching.min():+.0f} to {1e3 * touching.max():+.0f}  {time.perf_counter() - t0:8.1f}",
+                  flush=True)
+    return 0
 
 
 def distributed_against_serial(args) -> int:

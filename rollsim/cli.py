@@ -450,14 +450,14 @@ def cmd_run(args) -> dict:
         raise InputError("wheel.type", 'a pneumatic wheel runs with protocol = "indentation" or '
                          '"rolling-constant-load"')
     resumable = {}
-    if scene.wheel.type == "rigid" and scene.loading.protocol.startswith("rolling"):
+    if scene.wheel.type == "rigid" and scene.loading.protocol.startswith("rolling") and scene.model.rolling != "steady":
         if args.checkpoint_every is not None and args.checkpoint_every < 0:
             raise InputError("--checkpoint-every", "must be 0 (never) or a positive number of steps")
         resumable = {"restart": args.restart} | ({} if args.checkpoint_every is None
                                                  else {"checkpoint_every": args.checkpoint_every})
     elif args.checkpoint_every is not None or args.restart:
         raise InputError("--checkpoint-every" if args.checkpoint_every is not None else "--restart",
-                         "only a rigid wheel's rolling run writes checkpoints")
+                         "only a rigid wheel's transient rolling run writes checkpoints")
     from rollsim.solver.run import run_scene
     summary = run_scene(scene, args.out, comm, progress=not args.quiet, petsc_options=options or None,
                         write_fields=not args.no_fields, **resumable)
@@ -466,7 +466,10 @@ def cmd_run(args) -> dict:
         run_report(args.out)
     if not args.json and comm.rank == 0:
         extra = ""
-        if summary.get("steady_state"):
+        if summary.get("rolling") == "steady" and summary.get("rut_depth_m") is not None:
+            extra = (f"; steady rolling, Q_H = {summary['QH_N'] / 1e3:.2f} kN, rut depth "
+                     f"{summary['rut_depth_m']:.4f} m")
+        elif summary.get("steady_state"):
             ss = summary["steady_state"]
             extra = (f"; steady state {'reached' if ss['reached'] else 'NOT reached'}, Q_H = "
                      f"{summary['QH_N'] / 1e3:.2f} kN"

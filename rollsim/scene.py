@@ -14,12 +14,13 @@ from dataclasses import dataclass
 from rollsim.files import read_toml
 from rollsim.log import get_logger
 from rollsim.solver.options import (ACCURACIES, ACCURACY_REFINEMENT, CELL_TYPES, DEFAULT_ACCURACY,
-                                    DEFAULT_ELEMENTS_ACROSS_WHEEL, DEFAULT_KINEMATICS,
+                                    DEFAULT_ELEMENTS_ACROSS_WHEEL, DEFAULT_KINEMATICS, DEFAULT_ROLLING_METHOD,
                                     DEFAULT_LINEAR_SOLVER, DEFAULT_MATCH, DEFAULT_REGULARISING_COHESION,
                                     DEFAULT_RELAXATION_FALLBACK, DEFAULT_RELAXATION_LENGTH,
                                     DEFAULT_TRAVEL_RELAXATION_FALLBACK,
                                     DEFAULT_VOLUMETRIC_STRAIN, KINEMATICS,
                                     LINEAR_SOLVERS, MATCHES, PLATEAU_RTOL, PROTOCOLS, ROLLING_HEXAHEDRA,
+                                    ROLLING_METHODS, STEADY_ELEMENTS_PER_D,
                                     VOLUMETRIC_STRAINS, default_cell_type, default_volumetric_strain)
 from rollsim.units import (ANGLE, DIMENSIONLESS, FORCE, LENGTH, PRESSURE, UNIT_WEIGHT, InputError, Kind,
                            to_si)
@@ -76,7 +77,7 @@ class LoadingSpec:
     protocol: str
     max_sinkage: float | None = None  # m
     load: float | None = None  # N
-    travel: float | None = None  # m
+    travel: float | None = None  # m; not needed by steady rolling
 
 
 @dataclass(frozen=True)
@@ -96,13 +97,17 @@ class ModelSpec:
     travel_relaxation_fallback: float = DEFAULT_TRAVEL_RELAXATION_FALLBACK   # m; a failed roll restarts relaxed
     regularising_cohesion: float = DEFAULT_REGULARISING_COHESION   # Pa in place of c = 0; 0: c stays 0
     plateau_tolerance: float = PLATEAU_RTOL   # Newton plateaus accepted below this x |F_internal|; 0: never
+    rolling: str = DEFAULT_ROLLING_METHOD   # a rigid wheel's rolling: "transient" or "steady"
 
     @property
     def elements_per_d(self) -> float:
         """Elements per wheel diameter in the refined zone (along the path on a hexahedral rolling
-        block): ``refinement`` if given, else the ``accuracy`` preset's."""
+        block; at the contact of a steady window): ``refinement`` if given, else the ``accuracy``
+        preset's."""
         if self.refinement is not None:
             return self.refinement
+        if self.rolling == "steady":
+            return STEADY_ELEMENTS_PER_D[self.accuracy]
         if self.cell_type == "hexahedra":
             return ROLLING_HEXAHEDRA[self.accuracy][0]
         return ACCURACY_REFINEMENT[self.accuracy]
@@ -112,6 +117,8 @@ class ModelSpec:
         """The mesh in words: the preset, or the elements per d that replace it, and the hexahedra's
         elements across the wheel and, where finer, along the path."""
         name = self.accuracy if self.refinement is None else f"{self.refinement:g} elements per d"
+        if self.rolling == "steady":
+            return f"{name} (steady window, {self.elements_per_d:g} elements per d at the contact)"
         if self.elements_across_wheel is not None:
             per_d = f"{self.elements_per_d:g} per d, " if self.refinement is None else ""
             along = (f", {self.elements_along_path:g} per d along the path"
@@ -318,7 +325,7 @@ def _soil(t: _Table) -> SoilSpec:
     return SoilSpec(gamma, specs)
 
 
-def _loading(t: _Table, wheel: WheelSpec) -> LoadingSpec:
+def _loading(t: _Table, wheel: WheelSpec, steady: bool = False) -> LoadingSpec:
     protocol = t.choice("protocol", PROTOCOLS)
     spec = {"protocol": protocol}
     if protocol in ("indentation", "rolling-continuous"):
@@ -333,7 +340,7 @@ def _loading(t: _Table, wheel: WheelSpec) -> LoadingSpec:
     else:
         spec["load"] = t.quantity("load", FORCE, required=True, positive=True)
     if protocol.startswith("rolling"):
-        spec["travel"] = t.quantity("travel", LENGTH, required=True, positive=True)
+        spec["travel"] = t.quantity("travel", LENGTH, required=not steady, positive=True)
     t.done(f"protocol {protocol}")
     return LoadingSpec(**spec)
 
@@ -372,6 +379,36 @@ def _rolling_cells(t: _Table, wheel: WheelSpec, loading: LoadingSpec, accuracy: 
     return cell_type, across, along
 
 
+#: the [model] keys of the transient rolling block and solver that a steady window does not use
+TRANSIENT_ONLY = ("cell_type", "elements_across_wheel", "elements_along_path", "relaxation_length",
+                  "relaxation_fallback", "travel_relaxation_fallback", "plateau_tolerance", "linear_solver")
+
+
+def _rolling_method(t: _Table, wheel: WheelSpec, soil: SoilSpec, loading: LoadingSpec) -> str:
+    """``[model] rolling``: how a rigid wheel rolls; "steady" only where a steady window models the
+    scene (a rigid cylinder on a uniform soil, small strain)."""
+    if not loading.protocol.startswith("rolling"):
+        if t.has("rolling"):
+            raise InputError(t.key("rolling"), "applies to the rolling protocols")
+        return DEFAULT_ROLLING_METHOD
+    method = t.choice("rolling", ROLLING_METHODS, default=DEFAULT_ROLLING_METHOD)
+    if method != "steady":
+        return method
+    if wheel.type != "rigid":
+        raise InputError(t.key("rolling"), '"steady" rolls a rigid wheel; the pneumatic tire rolls "transient"')
+    if wheel.shape != "cylinder":
+        raise InputError(t.key("rolling"), '"steady" rolls a cylinder (wheel.shape = "cylinder")')
+    if len(soil.layers) > 1:
+        raise InputError(t.key("rolling"), '"steady" takes a uniform soil (one layer); layered soil rolls "transient"')
+    if t.data.get("kinematics", DEFAULT_KINEMATICS) != DEFAULT_KINEMATICS:
+        raise InputError(t.key("kinematics"), f'steady rolling is {DEFAULT_KINEMATICS} (the streamlines are straight)')
+    for key in TRANSIENT_ONLY:
+        if t.has(key):
+            raise InputError(t.key(key), "does not apply to steady rolling (its window is sized from the wheel and "
+                             "the preset: docs/scene.md)")
+    return method
+
+
 def parse_scene(data: dict) -> Scene:
     """A scene from parsed TOML data (a dict); raises ``InputError`` naming the key."""
     top = _Table(data, "")
@@ -382,12 +419,14 @@ def parse_scene(data: dict) -> Scene:
         sections[name] = _Table(top.raw(name), name, top.notes)
     wheel = _wheel(sections["wheel"])
     soil = _soil(sections["soil"])
-    loading = _loading(sections["loading"], wheel)
     model_table = _Table(top.raw("model", {}), "model", top.notes)
+    loading = _loading(sections["loading"], wheel, steady=model_table.data.get("rolling") == "steady")
+    rolling = _rolling_method(model_table, wheel, soil, loading)
     accuracy = model_table.choice("accuracy", ACCURACIES, default=DEFAULT_ACCURACY)
     refinement = model_table.quantity("refinement", DIMENSIONLESS, default=None)
     strain = default_volumetric_strain(loading.protocol, accuracy, refinement, wheel.type)
-    cell_type, across, along = _rolling_cells(model_table, wheel, loading, accuracy, refinement)
+    cell_type, across, along = (None, None, None) if rolling == "steady" else \
+        _rolling_cells(model_table, wheel, loading, accuracy, refinement)
     model = ModelSpec(accuracy=accuracy, refinement=refinement, cell_type=cell_type, elements_across_wheel=across,
                       elements_along_path=along,
                       kinematics=model_table.choice("kinematics", KINEMATICS, default=DEFAULT_KINEMATICS),
@@ -402,7 +441,8 @@ def parse_scene(data: dict) -> Scene:
                       regularising_cohesion=model_table.quantity("regularising_cohesion", PRESSURE,
                                                                  default=DEFAULT_REGULARISING_COHESION, minimum=0.0),
                       plateau_tolerance=model_table.quantity("plateau_tolerance", DIMENSIONLESS,
-                                                             default=PLATEAU_RTOL, minimum=0.0))
+                                                             default=PLATEAU_RTOL, minimum=0.0),
+                      rolling=rolling)
     if model.regularising_cohesion == 0:
         for i, layer in enumerate(soil.layers):
             if layer.model == "mohr-coulomb" and layer.c == 0:

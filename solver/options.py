@@ -17,6 +17,14 @@ DEFAULT_ACCURACY = "standard"
 #: small strain, or incremental large deformation (``PlasticityProblem(kinematics=...)``)
 KINEMATICS = ("small-strain", "updated-lagrangian")
 DEFAULT_KINEMATICS = "small-strain"
+#: how a rigid wheel rolls (``[model] rolling``): "transient", moved step by step along a block;
+#: "steady", the steady state solved directly in the wheel's frame on a window that travels with
+#: it (``rollsim.solver.steady``)
+ROLLING_METHODS = ("transient", "steady")
+DEFAULT_ROLLING_METHOD = "transient"
+#: steady rolling: elements per wheel diameter at the contact, per mesh preset (the window's fine
+#: cells, d / this; ``[model] refinement`` replaces it)
+STEADY_ELEMENTS_PER_D = {"fast": 20.0, "standard": 30.0, "accurate": 40.0}
 #: linear solver of the Newton iteration (``PlasticityProblem(linear_solver=...)``): "auto" =
 #: direct LU up to ``problem.AUTO_ITERATIVE_DOFS`` dofs, iterative (AMG-preconditioned GMRES) above
 LINEAR_SOLVERS = ("auto", "direct", "iterative")

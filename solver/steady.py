@@ -997,13 +997,15 @@ class SteadyRolling:
         from the last.  Newton steps on the spin with the torque's exact derivative and the
         displacement's sensitivity as predictor (:meth:`_spin_sensitivity`) until the root is
         bracketed, then regula falsi (Illinois).  Where the torque jumps across zero (a bracket
-        narrower than ``spin_tol``), the side of the smaller torque is taken, with a warning."""
+        narrower than ``spin_tol``), the side of the smaller torque is taken, with a warning.  The
+        result's iterations, sweeps and wall time are those of all the solves."""
         if not (isinstance(max_iterations, int) and max_iterations >= 1):
             raise ValueError(f"max_iterations must be an integer >= 1, got {max_iterations!r}")
         if not 0 < torque_rtol < 1:
             raise ValueError(f"torque_rtol must lie in (0, 1), got {torque_rtol!r}")
         R = self.wheel.diameter / 2
-        result = self.solve_sinkage(sinkage, inflow)
+        started, work = time.perf_counter(), np.zeros(3, dtype=int)      # Newton, Krylov, sweeps
+        result = self._counted(self.solve_sinkage(sinkage, inflow), work, started)
         bracket: dict[bool, tuple[float, float]] = {}      # (spin, torque) on each side of zero torque
         ends = {}                                           # the same, torques unweighted
         kept = None                                         # the end the last regula falsi step kept
@@ -1034,7 +1036,7 @@ class SteadyRolling:
                 self.spin = result.spin + step
                 self.u.x.array[:] = u + step * sensitivity
                 try:
-                    trial = self.solve_sinkage(sinkage, inflow)
+                    trial = self._counted(self.solve_sinkage(sinkage, inflow), work, started)
                     break
                 except NoSteadyState:
                     # the stick-slip pattern jumped too far: back to the last state, half the step
@@ -1044,7 +1046,16 @@ class SteadyRolling:
                         raise
             result = trial
         raise NoSteadyState(f"no free-rolling spin at the sinkage {sinkage:.6g} m: the axle torque stayed at "
-                            f"{result.axle_torque:.3e} N m/m after {max_iterations} solves")
+                            f"{result.axle_torque:.3e} {'N m/m' if self.gdim == 2 else 'N m'} after {max_iterations} solves")
+
+    @staticmethod
+    def _counted(result: SteadyRollingResult, work: np.ndarray, started: float) -> SteadyRollingResult:
+        """``result`` with the Newton and Krylov iterations and sweeps of all the solves so far
+        (``work``, added to in place) and the wall time since ``started``."""
+        work += (result.newton_iterations, result.krylov_iterations, result.sweeps)
+        result.newton_iterations, result.krylov_iterations, result.sweeps = (int(w) for w in work)
+        result.wall_time = time.perf_counter() - started
+        return result
 
     def _torque_jump(self, sinkage: float, inflow, result: SteadyRollingResult,
                      ends: dict[bool, tuple[float, float]]) -> SteadyRollingResult:
@@ -1060,45 +1071,53 @@ class SteadyRolling:
         return self.solve_sinkage(sinkage, inflow)
 
     def solve_load(self, load: float, inflow: StreamlineState | None = None, *, initial_sinkage: float | None = None,
-                   free_rolling: bool = False, rtol: float = 1e-6, max_iterations: int = 20) -> SteadyRollingResult:
+                   free_rolling: bool = False, rtol: float = 1e-6, max_iterations: int = 20,
+                   states: dict | None = None, torque_rtol: float = 1e-6) -> SteadyRollingResult:
         """The steady state of the wheel carrying the vertical force ``load`` (N/m): the sinkage
-        found by a secant iteration on ``Q_V(sinkage) = load`` to ``|Q_V - load| <= rtol load``,
-        from ``initial_sinkage`` (m; default: the last solve's), each solve from the converged state at
-        the deepest sinkage tried short of it (stepping up keeps the contact).  With
-        ``free_rolling`` every sinkage is solved by :meth:`solve_free_rolling`, else at the
-        current :attr:`spin`."""
+        with ``|Q_V - load| <= rtol load``.  Each new sinkage is the secant through the two states
+        whose Q_V lie closest to the load, kept inside the bracket of the load once there is one
+        (else the bracket is halved); before that, as if Q_V were proportional to the sinkage.
+        The first state is the solve at ``initial_sinkage`` (m; default: the last solve's) or,
+        given ``states`` (sinkage -> (displacement array, spin, Q_V) of converged states, e.g. from
+        stepping the sinkage up), those.  Each solve starts from the converged state at the
+        deepest sinkage short of it (stepping up keeps the contact), with its spin.  With
+        ``free_rolling`` every sinkage is solved by :meth:`solve_free_rolling` (to ``torque_rtol``),
+        else at the current :attr:`spin`."""
         if not (math.isfinite(load) and load > 0):
             raise ValueError(f"load must be a positive force (N/m), got {load!r}")
         if not 0 < rtol < 1:
             raise ValueError(f"rtol must lie in (0, 1), got {rtol!r}")
         if not (isinstance(max_iterations, int) and max_iterations >= 1):
             raise ValueError(f"max_iterations must be an integer >= 1, got {max_iterations!r}")
-        sinkage = self._last_sinkage if initial_sinkage is None else initial_sinkage
-        if sinkage is None:
-            raise ValueError("give an initial_sinkage (m): no sinkage has been solved yet")
-        solve = self.solve_free_rolling if free_rolling else self.solve_sinkage
-        states = {}                     # converged displacements by sinkage: each solve starts from a shallower one
+        known = dict(states or {})
+
+        def solve(sinkage: float, inflow) -> SteadyRollingResult:
+            if free_rolling:
+                return self.solve_free_rolling(sinkage, inflow, torque_rtol=torque_rtol)
+            return self.solve_sinkage(sinkage, inflow)
 
         def solve_at(sinkage: float) -> SteadyRollingResult:
-            shallower = [s for s in states if s < sinkage]
-            if shallower:
-                self.u.x.array[:] = states[max(shallower)]
+            shallower = [s for s in known if s < sinkage]
+            if shallower:                   # the state solved there (a failed step is cut from it)
+                self._last_sinkage = max(shallower)
+                u, self.spin, _ = known[self._last_sinkage]
+                self.u.x.array[:] = u
             elif self._last_sinkage is not None and self._last_sinkage > sinkage:
-                self.u.x.array[:] = 0.0
+                self.u.x.array[:], self._last_sinkage = 0.0, None
             result = solve(sinkage, inflow)
-            states[result.sinkage] = self.u.x.array.copy()
+            known[result.sinkage] = (self.u.x.array.copy(), self.spin, result.vertical_force)
             return result
 
-        result, last = solve_at(sinkage), None
+        result = None
+        if not known:
+            sinkage = self._last_sinkage if initial_sinkage is None else initial_sinkage
+            if sinkage is None:
+                raise ValueError("give an initial_sinkage (m) or states: no sinkage has been solved yet")
+            result = solve_at(sinkage)
         for _ in range(max_iterations):
-            if abs(result.vertical_force - load) <= rtol * load:
+            if result is not None and abs(result.vertical_force - load) <= rtol * load:
                 return result
-            if last is None:            # the first step as if Q_V were proportional to the sinkage
-                step = result.sinkage * (load / result.vertical_force - 1.0)
-            else:
-                step = (load - result.vertical_force) * (result.sinkage - last.sinkage) / (
-                    result.vertical_force - last.vertical_force)
-            last, result = result, solve_at(max(result.sinkage + step, 0.5 * result.sinkage))
+            result = solve_at(_next_sinkage({s: q for s, (_, _, q) in known.items()}, load))
         raise NoSteadyState(f"no sinkage carries the load {load:.6g} N/m: Q_V = {result.vertical_force:.6g} N/m "
                             f"after {max_iterations} solves")
 
@@ -1275,6 +1294,27 @@ class SteadyRolling:
         u = np.concatenate(self.comm.allgather(self.u.x.array.reshape(-1, self.gdim)[top]))
         order = np.argsort(x)
         return x[order], u[order]
+
+
+def _next_sinkage(forces: dict[float, float], load: float) -> float:
+    """The next sinkage of :meth:`SteadyRolling.solve_load` from the vertical forces found so far
+    (sinkage -> Q_V, m -> N/m)."""
+    points = sorted(forces.items())
+    below = [p for p in points if p[1] < load]
+    above = [p for p in points if p[1] >= load]
+    if len(points) == 1:
+        s, q = points[0]
+        return s * load / q if q > 0 else 2.0 * s
+    (s0, q0), (s1, q1) = sorted(points, key=lambda p: abs(p[1] - load))[:2]
+    guess = s1 + (load - q1) * (s1 - s0) / (q1 - q0) if q1 != q0 else math.nan
+    if below and above:
+        lo, hi = below[-1][0], above[0][0]
+        return guess if lo < guess < hi else 0.5 * (lo + hi)
+    if above:                               # every state carries more: shallower, not past half of it
+        return guess if 0.5 * above[0][0] <= guess < above[0][0] else max(above[0][0] * load / above[0][1],
+                                                                            0.5 * above[0][0])
+    (deepest, q), double = below[-1], 2.0 * below[-1][0]   # every state carries less: deeper, at most twice
+    return guess if deepest < guess <= double else (min(deepest * load / q, double) if q > 0 else double)
 
 
 def _levels(values: np.ndarray, tol: float) -> np.ndarray:

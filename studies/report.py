@@ -17,6 +17,7 @@ import re
 import numpy as np
 
 from rollsim.files import read_text
+from rollsim.scene import TRANSIENT_ONLY
 from rollsim.studies.study import other_parameters
 from rollsim.units import InputError
 
@@ -351,9 +352,32 @@ def run_report(directory) -> pathlib.Path:
                               ("rut.png", "The rut after lift-off (displacement x 5), plastic strain.")):
             if (out / name).is_file():
                 text += [f"![{name}]({name})", "", f"*{caption}*", ""]
+    if summary.get("rolling") == "steady" and summary.get("rut_depth_m") is not None:
+        text += _steady_section(summary, scene, wheel, soil, opts)
     path = out / "report.md"
     atomic_write_text(path, "\n".join(text))
     return path
+
+
+def _steady_section(summary: dict, scene, wheel, soil, opts) -> list[str]:
+    """The report's table of a steady roll (the last steady state) and its rut picture."""
+    from rollsim.studies import bearing_capacity as bc
+    lines = ["## Steady rolling", "", "| quantity | value |", "|---|---|"]
+    if scene.loading.protocol == "rolling-constant-load":
+        s_model = float(bc.sinkage(scene.loading.load, wheel, soil, opts).sinkage)
+        lines.append(f"| steady sinkage | {1e3 * summary['sinkage_m']:.2f} mm (bearing-capacity model: "
+                     f"{1e3 * s_model:.2f} mm) |")
+    else:
+        lines.append(f"| deepest steady state | {1e3 * summary['sinkage_m']:.2f} mm, Q_V "
+                     f"{summary['QV_N'] / 1e3:.2f} kN |")
+    window = summary["model"]["window_m"]
+    lines += [f"| Q_H (towing force) | {summary['QH_N'] / 1e3:.2f} kN |",
+              f"| spin omega R / V, rolling radius | {summary['spin']:.4f}, {summary['rolling_radius_m']:.4f} m |",
+              f"| contact length (centre line) | {1e3 * summary['contact_length_m']:.1f} mm |",
+              f"| rut depth / rebound | {1e3 * summary['rut_depth_m']:.2f} mm / {1e3 * summary['rebound_m']:.2f} mm |",
+              f"| window (ahead, behind, depth, across; fine cells) | {window['ahead']:.3g}, {window['behind']:.3g}, "
+              f"{window['depth']:.3g}, {window['across']:.3g} m; {1e3 * window['fine_cell']:.3g} mm |", ""]
+    return lines + ["![rut.png](rut.png)", "", "*The surface on the wheel's centre line in its frame.*", ""]
 
 
 def _scene_input(echo: dict) -> dict:
@@ -368,6 +392,12 @@ def _scene_input(echo: dict) -> dict:
     if data["wheel"].get("type") == "pneumatic":     # the echo carries the rigid wheel's keys too
         data["wheel"].pop("shape", None)
         data["wheel"].pop("fillet", None)
+    model = data.get("model", {})
+    if not data["loading"]["protocol"].startswith("rolling"):      # the echo carries the default method
+        model.pop("rolling", None)
+    elif model.get("rolling") == "steady":        # and the transient solver's defaults
+        for key in TRANSIENT_ONLY:
+            model.pop(key, None)
     for layer in data["soil"]["layers"]:
         if "c" not in layer:
             layer.pop("match", None)

@@ -137,7 +137,8 @@ def _documented_keys() -> set[str]:
 
 #: the reader of each table in rollsim/scene.py: (function, variable) -> table
 _TABLE_OF = {("_wheel", "t"): "wheel", ("_layer", "t"): "soil.layers[]", ("_soil", "t"): "soil",
-             ("_loading", "t"): "loading", ("parse_scene", "model_table"): "model", ("_rolling_cells", "t"): "model"}
+             ("_loading", "t"): "loading", ("parse_scene", "model_table"): "model", ("_rolling_cells", "t"): "model",
+             ("_rolling_method", "t"): "model"}
 
 
 def _validator_keys() -> set[str]:

@@ -209,6 +209,23 @@ def test_checkpoint_options_are_refused_where_they_do_not_apply(comm, tmp_mpi_pa
     assert not (tmp_mpi_path / "run").exists()
 
 
+def test_steady_roll_refuses_checkpoint_options(comm, tmp_mpi_path, capsys):
+    """A steady roll is one solve per state: --restart and --checkpoint-every are refused (exit 2,
+    naming the option, nothing written)."""
+    import pathlib
+
+    from rollsim.cli import main
+    example = (pathlib.Path(__file__).parent.parent / "examples" / "rolling_constant_load_mndot.toml").read_text()
+    scene = tmp_mpi_path / "steady.toml"
+    if comm.rank == 0:
+        scene.write_text(example.replace('accuracy = "fast"', 'accuracy = "fast"\nrolling = "steady"'))
+    comm.barrier()
+    for option in (["--restart"], ["--checkpoint-every", "5"]):
+        assert main(["run", str(scene), "--out", str(tmp_mpi_path / "run"), *option]) == 2
+        assert comm.rank != 0 or option[0] in capsys.readouterr().err
+        assert not (tmp_mpi_path / "run").exists()
+
+
 def test_time_left_follows_the_recent_pace(monkeypatch):
     """The progress line's time left: the pace of the last ten steps (a roll that slows down as it
     plastifies is not promised the pace of its elastic start), from the travel a continued run

@@ -177,13 +177,51 @@ def test_hexahedral_rolling_block_options():
     assert err.value.field == "model.cell_type"
 
 
+def test_steady_rolling_rules():
+    """[model] rolling = "steady": a rigid cylinder on one soil layer, small strain; travel not
+    needed; its elements per d are the steady presets'; the transient block's keys are refused as
+    not applying, and so is the key on indentation, a tire, a torus and layered soil."""
+    steady = with_change("loading", {"protocol": "rolling-constant-load", "load": "133.5 kN"})
+    steady["model"] = {"rolling": "steady", "accuracy": "fast"}
+    scene = parse_scene(steady)
+    assert scene.model.rolling == "steady" and scene.loading.travel is None
+    assert scene.model.elements_per_d == 20 and scene.model.cell_type is None
+    assert scene.model.mesh_name == "fast (steady window, 20 elements per d at the contact)"
+    steady["model"]["refinement"] = 12
+    assert parse_scene(steady).model.elements_per_d == 12
+    transient = with_change("loading", {"protocol": "rolling-constant-load", "load": "133.5 kN"})
+    with pytest.raises(InputError) as err:                   # transient rolling needs its travel
+        parse_scene(transient)
+    assert err.value.field == "loading.travel"
+    tire = {"type": "pneumatic", "diameter": "1.2 m", "width": "0.4 m", "hub_diameter": "0.6 m",
+            "inflation": "600 kPa", "E_carcass": "200 MPa"}
+    refused = [("model.rolling", {"loading": BASE["loading"]}),
+               ("model.rolling", {"wheel": tire}),
+               ("model.rolling", {"wheel": {**BASE["wheel"], "shape": "torus"}}),
+               ("model.rolling", {"soil": {"gamma": "127 pcf", "layers": [
+                   {**BASE["soil"]["layers"][0], "thickness": "0.5 m"}, BASE["soil"]["layers"][0]]}}),
+               ("model.kinematics", {"model": {"rolling": "steady", "kinematics": "updated-lagrangian"}}),
+               ("model.cell_type", {"model": {"rolling": "steady", "cell_type": "hexahedra"}}),
+               ("model.relaxation_length", {"model": {"rolling": "steady", "relaxation_length": "1 mm"}})]
+    for field, change in refused:
+        data = json.loads(json.dumps(steady))
+        data.update(change)
+        data.setdefault("model", {})["rolling"] = "steady"
+        with pytest.raises(InputError) as err:
+            parse_scene(data)
+        assert err.value.field == field, (field, change)
+
+
 def test_summary_scene_echo_parses_back():
     """The scene echoed in summary.json (``Scene.to_dict``) reads back as the same scene (the
-    report rebuilds it), for every example and a hexahedral rolling scene."""
+    report rebuilds it), for every example, a hexahedral and a steady rolling scene."""
     from rollsim.studies.report import _scene_input
     hexahedral = with_change("loading", {"protocol": "rolling-constant-load", "load": "133.5 kN", "travel": "3 m"})
     hexahedral["model"] = {"cell_type": "hexahedra", "elements_across_wheel": 12}
-    for scene in [load_scene(p) for p in sorted(EXAMPLES.glob("*.toml"))] + [parse_scene(hexahedral)]:
+    steady = with_change("loading", {"protocol": "rolling-continuous", "max_sinkage": "10 mm"})
+    steady["model"] = {"rolling": "steady"}
+    for scene in [load_scene(p) for p in sorted(EXAMPLES.glob("*.toml"))] + [parse_scene(hexahedral),
+                                                                             parse_scene(steady)]:
         assert parse_scene(_scene_input(scene.to_dict())) == scene
 
 

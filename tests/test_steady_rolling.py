@@ -745,3 +745,44 @@ def test_3d_frictional_roller_rolls_free_on_elastic_soil():
     assert abs(free.axle_torque) <= 1e-6 * ROLLER.diameter / 2 * free.vertical_force
     assert abs(free.towing_force) < 1e-3 * free.vertical_force and free.spin < 1.0
     assert st.horizontal_balance().towing_force == pytest.approx(free.towing_force, abs=1e-6 * free.vertical_force)
+
+
+@pytest.mark.end_to_end
+def test_steady_scene_runs_end_to_end(comm, tmp_mpi_path):
+    """``[model] rolling = "steady"`` through run_scene (constant load, the Mn/DOT roller lightly
+    loaded (40 kN) on the case-5 soil, fast cells in a small window): the towed wheel carries the load, the sinkage steps
+    up to it, the rut lies between zero and the sinkage, the spin is the free-rolling one (zero axle
+    torque), and the run directory holds the profile, the picture, the fields and the report."""
+    import csv
+    import json
+
+    from rollsim.scene import parse_scene
+    from rollsim.solver.run import run_scene
+    from rollsim.studies.report import run_report
+    scene = parse_scene({"wheel": {"diameter": "1.524 m", "width": "0.4572 m", "friction": 0.8},
+                         "soil": {"gamma": "20 kN/m^3", "layers": [{"model": "drucker-prager", "E": "40 MPa",
+                                                                    "nu": 0.35, "phi_dp": "27.5 deg",
+                                                                    "c_dp": "194.6 kPa"}]},
+                         "loading": {"protocol": "rolling-constant-load", "load": "40 kN"},
+                         "model": {"rolling": "steady", "accuracy": "fast"}})
+    small = {"ahead": 0.25, "behind": 0.35, "depth": 0.25, "beside": 0.15}      # d; the scene's is larger
+    summary = run_scene(scene, tmp_mpi_path, comm, progress=False, window=small)
+    assert summary["status"] == "ok", summary["reason"]
+    assert summary["rolling"] == "steady" and summary["ranks"] == comm.size
+    assert summary["model"]["window_m"]["ahead"] == pytest.approx(0.25 * 1.524)
+    assert summary["QV_N"] == pytest.approx(40e3, rel=1e-3)
+    rows = list(csv.DictReader((tmp_mpi_path / "history.csv").open()))
+    sinkages = [float(r["sinkage_m"]) for r in rows]
+    assert len(rows) >= 2 and sinkages[-1] == pytest.approx(summary["sinkage_m"])
+    assert all(float(r["travel_m"]) == 0.0 for r in rows)
+    assert 0 < summary["rut_depth_m"] < summary["sinkage_m"]
+    assert summary["rebound_m"] == pytest.approx(summary["sinkage_m"] - summary["rut_depth_m"])
+    assert abs(summary["axle_torque_Nm"]) <= 1e-4 * 0.762 * 40e3
+    assert summary["QH_N"] > 0 and 0.9 < summary["spin"] < 1.1
+    assert summary["rolling_radius_m"] == pytest.approx(0.762 / summary["spin"])
+    assert 0 < summary["contact_length_m"] < 2 * summary["model"]["window_m"]["fine_half_length"]
+    if comm.rank == 0:
+        for name in ("rut_profile.csv", "rut.png", "force_sinkage.png", "fields/steady.xdmf"):
+            assert (tmp_mpi_path / name).stat().st_size > 100, name
+        assert json.loads((tmp_mpi_path / "summary.json").read_text())["rut_depth_m"] == summary["rut_depth_m"]
+        assert "## Steady rolling" in run_report(tmp_mpi_path).read_text()

@@ -1,0 +1,253 @@
+"""Driver of the rolling protocols with ``[model] rolling = "steady"``: the rigid wheel's steady
+state solved directly in its frame (:class:`~rollsim.solver.steady.SteadyRolling`) on a half
+window sized from the wheel and the preset (:func:`steady_window`), instead of rolling it along a
+block.
+
+* ``rolling-constant-load``: the sinkage is stepped up (each state the start of the next) until
+  the towed wheel carries ``loading.load``, then found by a secant iteration; the summary gives
+  the steady sinkage, Q_H, the wheel's spin and rolling radius, the contact length, the rut left
+  behind the window's rear face and the rebound.
+* ``rolling-continuous``: the towed wheel held at ten sinkages up to ``loading.max_sinkage``,
+  each a steady state: the force-sinkage curve Q_V(s), Q_H(s) without a ramp.
+
+``loading.travel`` is not used.  Files: ``summary.json`` (``"rolling": "steady"``, the window,
+Newton and Krylov iterations), ``history.csv`` (one row per converged steady state, travel 0),
+``force_sinkage.png``, ``rut_profile.csv`` (the surface on the wheel's centre line in the moving
+frame: x from the front face to the rear, settlement), ``rut.png`` and ``fields/steady.xdmf``.
+"""
+from __future__ import annotations
+
+import pathlib
+import time
+
+import numpy as np
+from mpi4py import MPI
+
+from rollsim import compat
+from rollsim.files import atomic_write_text
+from rollsim.log import get_logger
+
+from ..rundir import _pyplot, _save, finish_run, make_run_directory, write_history
+from ..scene_model import layer_materials, scene_penalty, wheel_geometry
+from ..steady import NoSteadyState, RollingWindow, SteadyRolling, rolling_window_mesh
+from .base import run_protected
+
+__all__ = ["run_steady", "steady_window", "CURVE_POINTS"]
+
+log = get_logger("run")
+
+#: steady states on the force-sinkage curve of ``rolling-continuous``
+CURVE_POINTS = 10
+#: the first sinkage step of ``rolling-constant-load`` (x d), grown by half after an easy solve
+FIRST_STEP = 0.002
+#: the window in wheel diameters: the fine zone's half length (also its depth and, from the wheel's
+#: edge, its reach across), the soil ahead of the axle, behind it, below the surface and across
+#: from the wheel's edge
+WINDOW = {"half_width": 0.1, "ahead": 0.4, "behind": 0.6, "depth": 0.4, "beside": 0.3}
+
+
+def steady_window(scene, extents: dict | None = None) -> RollingWindow:
+    """The half window of a steady roll of ``scene`` (m): :data:`WINDOW` (with ``extents`` in its
+    place where given) times the diameter; the fine cells d / (the preset's elements per d, or
+    ``[model] refinement``)."""
+    d, b = scene.wheel.diameter, scene.wheel.width
+    extents = {**WINDOW, **(extents or {})}
+    half_width = extents["half_width"] * d
+    cells = max(1, round(half_width * scene.model.elements_per_d / d))
+    return RollingWindow(half_width=half_width, ahead=extents["ahead"] * d, behind=extents["behind"] * d,
+                         depth=extents["depth"] * d, cells_per_half_width=cells,
+                         across=b / 2 + extents["beside"] * d, load_half_width_across=b / 2)
+
+
+def run_steady(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_options: dict | None = None,
+               write_fields: bool = True, penalty: float | None = None, window: dict | None = None) -> dict:
+    """Steady rolling of ``scene`` (rigid cylinder, uniform soil) on ``comm``; writes the run
+    directory ``out_dir`` and returns the summary.  ``window``: extents in d in place of
+    :data:`WINDOW`'s (studies of the window's effect, tests).  A steady state that cannot be found
+    ends the run as ``"failed"`` with the reason; the states found before it are kept."""
+    t_start = time.perf_counter()
+    out = make_run_directory(out_dir, comm)
+    window = steady_window(scene, window)
+    soil = layer_materials(scene)
+    material = soil.by_layer[1]
+    wheel = wheel_geometry(scene.wheel)
+    alpha = scene_penalty(scene, penalty)
+    steady = SteadyRolling(rolling_window_mesh(comm, window), material, wheel=wheel,
+                           friction=scene.wheel.friction, unit_weight=scene.soil.gamma,
+                           volumetric_strain=scene.model.volumetric_strain, petsc_options=petsc_options,
+                           **({} if alpha is None else {"penalty": alpha}))
+    dofs = steady.V.dofmap.index_map.size_global * steady.gdim
+    if progress and comm.rank == 0:
+        log.info("steady rolling (%s) of a rigid cylinder d = %g m, b = %g m: window %.3g m ahead, %.3g m "
+                 "behind, %.3g m deep, %.3g m across, fine cells %.3g m; %d dofs on %d rank(s)",
+                 scene.loading.protocol, scene.wheel.diameter, scene.wheel.width, window.ahead, window.behind,
+                 window.depth, window.across, window.cell_size, dofs, comm.size)
+    rows: list[dict] = []
+    results: dict = {}
+    states: dict = {}               # sinkage -> (displacement, spin, Q_V) of the states solved
+
+    def record(res) -> None:
+        rows.append(_row(len(rows) + 1, res, scene.wheel.diameter, t_start))
+        write_history(out, rows, comm)
+        results["last"] = res
+        if progress and comm.rank == 0:
+            log.info("steady state %d: s = %.4g mm, Q_V = %.4g kN, Q_H = %.4g kN, spin %.5f (%d Newton, %d Krylov, "
+                     "%.1f s)", len(rows), 1e3 * res.sinkage, res.vertical_force / 1e3, res.towing_force / 1e3,
+                     res.spin, res.newton_iterations, res.krylov_iterations, res.wall_time)
+
+    def solve(sinkage: float):
+        res = steady.solve_free_rolling(sinkage, torque_rtol=TORQUE_RTOL)
+        states[res.sinkage] = (steady.u.x.array.copy(), steady.spin, res.vertical_force)
+        record(res)
+        return res
+
+    def body():
+        if scene.loading.protocol == "rolling-continuous":
+            for s in np.arange(1, CURVE_POINTS + 1) * scene.loading.max_sinkage / CURVE_POINTS:
+                solve(float(s))
+        else:
+            results["final"] = _constant_load(steady, scene, solve, states)
+            record(results["final"])
+        return None
+
+    status, reason, diagnostics = run_protected(body, comm, lambda: {"steady_states": len(rows)})
+    summary = _summary(scene, steady, window, rows, results.get("last"), status, reason, diagnostics, t_start,
+                       dofs, alpha)
+    if rows:
+        _write_rut(out, steady, scene, summary, comm)
+        if write_fields:
+            _write_fields(out, steady)
+            summary["files"]["fields"] = ["fields/steady.xdmf"]
+    return finish_run(out, rows, scene, summary, comm, progress=progress)
+
+
+def _constant_load(steady: SteadyRolling, scene, solve, states: dict):
+    """The towed wheel at ``loading.load``: sinkage steps of :data:`FIRST_STEP` d (growing by half
+    per step) until Q_V passes the load, then :meth:`SteadyRolling.solve_load` inside that
+    bracket from the ``states`` solved (to :data:`LOAD_RTOL`)."""
+    d, load = scene.wheel.diameter, scene.loading.load
+    step, sinkage = FIRST_STEP * d, 0.0
+    while True:
+        if sinkage + step > 0.25 * d:
+            raise NoSteadyState(f"no steady state carries Q_V = {load / 1e3:g} kN down to the sinkage d/4 = "
+                                f"{0.25 * d:g} m: the wheel would plough on")
+        res = solve(sinkage + step)
+        sinkage = res.sinkage
+        if res.vertical_force >= load:
+            break
+        step *= 1.5
+    if abs(res.vertical_force - load) <= LOAD_RTOL * load:
+        return res
+    return steady.solve_load(load, free_rolling=True, rtol=LOAD_RTOL, states=states, torque_rtol=TORQUE_RTOL)
+
+
+#: relative tolerance on Q_V = load of ``rolling-constant-load``
+LOAD_RTOL = 1e-3
+#: the towed wheel's axle torque, at most this times R Q_V
+TORQUE_RTOL = 1e-4
+
+
+def _row(step: int, res, d: float, t_start: float) -> dict:
+    """The ``history.csv`` row of a steady state (travel 0; the moment is the axle torque)."""
+    return {"step": step, "sinkage_m": res.sinkage, "s_over_d": res.sinkage / d, "QV_N": res.vertical_force,
+            "QH_N": res.towing_force, "travel_m": 0.0, "moment_Nm": res.axle_torque, "contact_area_m2": None,
+            "max_penetration_m": None, "newton_iterations": res.newton_iterations, "cuts": 0,
+            "plastic_points": None, "wall_time_s": time.perf_counter() - t_start}
+
+
+def _centre_line(steady: SteadyRolling, sinkage: float) -> dict:
+    """On the wheel's centre line (y = 0): the surface's x (m, rear to front), settlement (m, down
+    positive) and the contact length (m: the extent of the surface nodes the wheel penetrates)."""
+    x, u = steady.surface_displacement()
+    R = steady.wheel.diameter / 2
+    axle = steady.surface + R - sinkage
+    gap = np.hypot(x + u[:, 0], steady.surface + u[:, -1] - axle) - R
+    touching = x[gap < 0]
+    return {"x": x, "settlement": -u[:, -1],
+            "contact_length": float(touching.max() - touching.min()) if touching.size > 1 else 0.0}
+
+
+def _summary(scene, steady: SteadyRolling, window: RollingWindow, rows, last, status, reason, diagnostics,
+             t_start: float, dofs: int, alpha) -> dict:
+    wall = steady.comm.allreduce(time.perf_counter() - t_start, op=MPI.MAX)
+    summary = {"status": status, "reason": reason, "protocol": scene.loading.protocol, "rolling": "steady",
+               "scene": scene.to_dict(), "wall_time_s": wall, "ranks": steady.comm.size, "dofs": dofs,
+               "cells": steady.comm.allreduce(steady.n_cells, op=MPI.SUM), "steps": len(rows),
+               "newton_iterations": int(sum(r["newton_iterations"] for r in rows)),
+               "sinkage_m": rows[-1]["sinkage_m"] if rows else 0.0, "QV_N": rows[-1]["QV_N"] if rows else 0.0,
+               "QH_N": rows[-1]["QH_N"] if rows else 0.0, "max_QV_N": max((r["QV_N"] for r in rows), default=0.0),
+               "model": {"rolling": "steady", "symmetry": "half", "symmetry_factor": 2,
+                         "accuracy": scene.model.accuracy, "elements_per_d": scene.model.elements_per_d,
+                         "cell_type": "hexahedron", "displacement_degree": 2, "kinematics": "small-strain",
+                         "volumetric_strain": steady.volumetric_strain,
+                         "contact": {"method": "penalty", "kappa_Pa_per_m": steady.kappa, "alpha": alpha,
+                                     "friction": steady.friction},
+                         "window_m": {"ahead": window.ahead, "behind": window.behind, "depth": window.depth,
+                                      "across": window.across, "fine_cell": window.cell_size,
+                                      "fine_half_length": window.fine_length}},
+               "files": {"history": "history.csv", "plot": "force_sinkage.png", "rut_profile": "rut_profile.csv",
+                         "rut_picture": "rut.png", "fields": []}}
+    if last is not None:
+        line = _centre_line(steady, last.sinkage)
+        rut = float(line["settlement"][0])                  # at the rear face, where the state has settled
+        summary.update(spin=last.spin, rolling_radius_m=steady.wheel.diameter / 2 / last.spin,
+                       axle_torque_Nm=last.axle_torque, contact_length_m=line["contact_length"],
+                       rut_depth_m=rut, rebound_m=last.sinkage - rut,
+                       max_accumulated_plastic_strain=last.max_accumulated_plastic_strain,
+                       krylov_iterations_last=last.krylov_iterations)
+        if line["contact_length"] > 2 * window.fine_length:
+            summary.setdefault("warnings", []).append(
+                f"the contact ({line['contact_length']:.3g} m) reaches beyond the window's fine zone "
+                f"(+-{window.fine_length:.3g} m): refine with a larger [model] refinement")
+    if diagnostics:
+        summary["diagnostics"] = diagnostics
+    return summary
+
+
+def _write_rut(out: pathlib.Path, steady: SteadyRolling, scene, summary: dict, comm: MPI.Comm) -> None:
+    """``rut_profile.csv`` and ``rut.png``: the surface on the centre line in the moving frame."""
+    line = _centre_line(steady, summary["sinkage_m"])
+    if comm.rank != 0:
+        return
+    text = "x_m,settlement_m\n" + "".join(f"{x:.6g},{w:.6g}\n" for x, w in zip(line["x"], line["settlement"]))
+    atomic_write_text(out / "rut_profile.csv", text)
+    try:
+        plt = _pyplot()
+        fig, ax = plt.subplots(figsize=(7, 3.4))
+        ax.plot(line["x"], 1e3 * line["settlement"], "-", color="0.3", label="surface on the centre line")
+        R, s = scene.wheel.diameter / 2, summary["sinkage_m"]
+        xs = np.linspace(-0.3 * R, 0.3 * R, 101)
+        ax.plot(xs, 1e3 * (s - (R - np.sqrt(R ** 2 - xs ** 2))), color="C3", lw=1.0, label="wheel")
+        if summary.get("rut_depth_m") is not None:
+            ax.axhline(1e3 * summary["rut_depth_m"], color="0.4", lw=0.8, ls=":",
+                       label=f"rut depth {1e3 * summary['rut_depth_m']:.2f} mm")
+        ax.invert_yaxis()
+        ax.set_xlabel("x from the axle (m; the soil flows towards -x)")
+        ax.set_ylabel("settlement (mm)")
+        ax.grid(alpha=0.3)
+        ax.legend(fontsize=8)
+        ax.set_title(f"steady rolling: s = {1e3 * s:.2f} mm, Q_V = {summary['QV_N'] / 1e3:.4g} kN"
+                     + ("" if summary["status"] == "ok" else f" [{summary['status']}]"), fontsize=10)
+        fig.tight_layout()
+        _save(fig, out / "rut.png")
+    except Exception as err:   # noqa: BLE001 - a plot must not lose the run
+        log.warning("rut plot failed: %s", err)
+
+
+def _write_fields(out: pathlib.Path, steady: SteadyRolling) -> None:
+    """``fields/steady.xdmf``: the window with the displacement and the cell averages of the
+    accumulated plastic strain (collective)."""
+    from dolfinx import fem
+    mesh = steady.mesh
+    V1 = compat.vector_space(mesh, 1)
+    u1 = fem.Function(V1, name="displacement")
+    u1.interpolate(steady.u)
+    W0 = compat.scalar_space(mesh, 0, "DG")
+    acc = fem.Function(W0, name="accumulated_plastic_strain")
+    nq = steady.n_qp // max(steady.n_cells, 1)
+    acc.x.array[: steady.n_cells] = steady.accumulated_plastic_strain.reshape(steady.n_cells, nq).mean(axis=1)
+    acc.x.scatter_forward()
+    with compat.xdmf_file(steady.comm, out / "fields" / "steady.xdmf", "w") as f:
+        f.write_mesh(mesh)
+        f.write_function(u1)
+        f.write_function(acc)
