@@ -425,8 +425,9 @@ class SteadyRolling:
         #: rolling without slip on a rigid surface)
         self.spin = 1.0
         self._last_sinkage: float | None = None
-        #: the displacements of the last two sinkages solved (m; the predictor's secant)
-        self._converged: list[tuple[float, np.ndarray]] = []
+        #: the sinkage, displacement and spin of the last two sinkages solved (the predictor's secant)
+        self._converged: list[tuple[float, np.ndarray, float]] = []
+        self._predict_spin = False          # the predictor moves the spin too (a free-rolling solve's first)
         self.half_width = None if half_width is None else float(half_width)
         self.control = control or NewtonKrylovControl()
         self.qdeg = 2 * degree if quadrature_degree is None else quadrature_degree
@@ -440,7 +441,7 @@ class SteadyRolling:
         self.base = comm.allreduce(float(x[:, self._up].min()), MPI.MIN)
         self._init_spaces(degree)
         if wheel is not None:                  # the undisturbed soil: the wheel touching the surface
-            self._converged.append((0.0, self.u.x.array.copy()))
+            self._converged.append((0.0, self.u.x.array.copy(), self.spin))
         ds = self._init_boundary()
         K = self._init_forms(ds, degree, penalty, unit_weight)
         self._init_preconditioner(K, preconditioner)
@@ -958,20 +959,30 @@ class SteadyRolling:
 
     def _predict(self, sinkage: float) -> None:
         """Secant predictor: when the displacement is that of the last sinkage solved and the two
-        last sinkages lie below ``sinkage``, move it along their secant (at most one of their steps)."""
+        last sinkages lie below ``sinkage``, move it along their secant (at most one of their
+        steps), and the spin as well at the start of a free-rolling solve."""
+        ratio = self._secant_ratio(sinkage)
+        if ratio:
+            (_, u0, spin0), (_, u1, spin1) = self._converged
+            self.u.x.array[:] = u1 + ratio * (u1 - u0)
+            if self._predict_spin:
+                self.spin = spin1 + ratio * (spin1 - spin0)
+
+    def _secant_ratio(self, sinkage: float) -> float:
+        """How far along the secant of the last two sinkages solved ``sinkage`` lies beyond the
+        last (in their steps, at most 1), when the displacement is still the last's; else 0."""
         if len(self._converged) < 2:
-            return
-        (s0, u0), (s1, u1) = self._converged
+            return 0.0
+        (s0, _, _), (s1, u1, _) = self._converged
         current = self.comm.allreduce(bool(np.array_equal(self.u.x.array, u1)), MPI.LAND)
-        if current and s0 < s1 < sinkage:
-            self.u.x.array[:] = u1 + min((sinkage - s1) / (s1 - s0), 1.0) * (u1 - u0)
+        return min((sinkage - s1) / (s1 - s0), 1.0) if current and s0 < s1 < sinkage else 0.0
 
     def _solve_sinkage(self, sinkage: float, inflow: StreamlineState | None) -> SteadyRollingResult:
         self.axle_height.value = self.surface + self.wheel.diameter / 2 - sinkage
         result = self._newton(inflow, f"at the sinkage {sinkage:.6g} m")
         if self._converged and self._converged[-1][0] == sinkage:
             self._converged.pop()
-        self._converged = (self._converged + [(float(sinkage), self.u.x.array.copy())])[-2:]
+        self._converged = (self._converged + [(float(sinkage), self.u.x.array.copy(), self.spin)])[-2:]
         result.sinkage = self._last_sinkage = float(sinkage)
         result.vertical_force = self.symmetry * self._scalar(self._vertical_force)
         result.towing_force = self.symmetry * self._scalar(self._towing_force)
@@ -1004,8 +1015,12 @@ class SteadyRolling:
         if not 0 < torque_rtol < 1:
             raise ValueError(f"torque_rtol must lie in (0, 1), got {torque_rtol!r}")
         R = self.wheel.diameter / 2
+        self._predict_spin = self._friction is not None     # the first solve's spin along the secant too
         started, work = time.perf_counter(), np.zeros(3, dtype=int)      # Newton, Krylov, sweeps
-        result = self._counted(self.solve_sinkage(sinkage, inflow), work, started)
+        try:
+            result = self._counted(self.solve_sinkage(sinkage, inflow), work, started)
+        finally:
+            self._predict_spin = False
         bracket: dict[bool, tuple[float, float]] = {}      # (spin, torque) on each side of zero torque
         ends = {}                                           # the same, torques unweighted
         kept = None                                         # the end the last regula falsi step kept

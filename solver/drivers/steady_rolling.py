@@ -38,8 +38,10 @@ log = get_logger("run")
 
 #: steady states on the force-sinkage curve of ``rolling-continuous``
 CURVE_POINTS = 10
-#: the first sinkage step of ``rolling-constant-load`` (x d), grown by half after an easy solve
+#: the first sinkage step of ``rolling-constant-load`` (x d), grown by half per step up to
+#: :data:`MAX_STEP` (x d)
 FIRST_STEP = 0.002
+MAX_STEP = 0.005
 #: the window in wheel diameters: the fine zone's half length (also its depth and, from the wheel's
 #: edge, its reach across), the soil ahead of the axle, behind it, below the surface and across
 #: from the wheel's edge
@@ -89,7 +91,7 @@ def run_steady(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_o
     def record(res) -> None:
         rows.append(_row(len(rows) + 1, res, scene.wheel.diameter, t_start))
         write_history(out, rows, comm)
-        results["last"] = res
+        results.update(last=res, state=(steady.u.x.array.copy(), steady.spin))
         if progress and comm.rank == 0:
             log.info("steady state %d: s = %.4g mm, Q_V = %.4g kN, Q_H = %.4g kN, spin %.5f (%d Newton, %d Krylov, "
                      "%.1f s)", len(rows), 1e3 * res.sinkage, res.vertical_force / 1e3, res.towing_force / 1e3,
@@ -111,6 +113,9 @@ def run_steady(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_o
         return None
 
     status, reason, diagnostics = run_protected(body, comm, lambda: {"steady_states": len(rows)})
+    if rows:                       # the last state recorded (a failed solve leaves another behind)
+        steady.u.x.array[:], steady.spin = results["state"]
+        steady.residual(steady.inflow)          # its fields swept again
     summary = _summary(scene, steady, window, rows, results.get("last"), status, reason, diagnostics, t_start,
                        dofs, alpha)
     if rows:
@@ -123,7 +128,7 @@ def run_steady(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_o
 
 def _constant_load(steady: SteadyRolling, scene, solve, states: dict):
     """The towed wheel at ``loading.load``: sinkage steps of :data:`FIRST_STEP` d (growing by half
-    per step) until Q_V passes the load, then :meth:`SteadyRolling.solve_load` inside that
+    per step up to :data:`MAX_STEP` d) until Q_V passes the load, then :meth:`SteadyRolling.solve_load` inside that
     bracket from the ``states`` solved (to :data:`LOAD_RTOL`)."""
     d, load = scene.wheel.diameter, scene.loading.load
     step, sinkage = FIRST_STEP * d, 0.0
@@ -135,7 +140,7 @@ def _constant_load(steady: SteadyRolling, scene, solve, states: dict):
         sinkage = res.sinkage
         if res.vertical_force >= load:
             break
-        step *= 1.5
+        step = min(1.5 * step, MAX_STEP * d)
     if abs(res.vertical_force - load) <= LOAD_RTOL * load:
         return res
     return steady.solve_load(load, free_rolling=True, rtol=LOAD_RTOL, states=states, torque_rtol=TORQUE_RTOL)
