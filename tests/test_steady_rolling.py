@@ -786,3 +786,37 @@ def test_steady_scene_runs_end_to_end(comm, tmp_mpi_path):
             assert (tmp_mpi_path / name).stat().st_size > 100, name
         assert json.loads((tmp_mpi_path / "summary.json").read_text())["rut_depth_m"] == summary["rut_depth_m"]
         assert "## Steady rolling" in run_report(tmp_mpi_path).read_text()
+
+
+@pytest.mark.end_to_end
+def test_steady_force_sinkage_curve_end_to_end(comm, tmp_mpi_path):
+    """rolling-continuous with ``rolling = "steady"`` (frictionless, coarse cells): ten steady
+    states at equal steps to max_sinkage, Q_V rising with the sinkage, the last equal to a direct
+    solve on the same window, and the force-sinkage plot."""
+    import csv
+
+    from rollsim.scene import parse_scene
+    from rollsim.solver.drivers.steady_rolling import CURVE_POINTS, steady_window
+    from rollsim.solver.run import run_scene
+    scene = parse_scene({"wheel": {"diameter": "1.524 m", "width": "0.4572 m", "friction": 0.0},
+                         "soil": {"gamma": "20 kN/m^3", "layers": [{"model": "von-mises", "E": "40 MPa", "nu": 0.35,
+                                                                    "c_dp": "200 kPa"}]},
+                         "loading": {"protocol": "rolling-continuous", "max_sinkage": "4 mm"},
+                         "model": {"rolling": "steady", "refinement": 10}})
+    small = {"ahead": 0.25, "behind": 0.35, "depth": 0.25, "beside": 0.15}
+    summary = run_scene(scene, tmp_mpi_path, comm, progress=False, window=small)
+    assert summary["status"] == "ok", summary["reason"]
+    rows = list(csv.DictReader((tmp_mpi_path / "history.csv").open()))
+    s = np.array([float(r["sinkage_m"]) for r in rows])
+    qv = np.array([float(r["QV_N"]) for r in rows])
+    assert len(rows) == CURVE_POINTS and s == pytest.approx(np.arange(1, 11) * 4e-4)
+    assert np.all(np.diff(qv) > 0) and summary["spin"] == 1.0
+    direct = SteadyRolling(rolling_window_mesh(comm, steady_window(scene, small)), VonMises(E=40e6, nu=0.35,
+                                                                                         yield_stress=200e3),
+                           wheel=CylinderWheel(1.524, 0.4572, 0.4572 / 12), unit_weight=20e3,
+                           volumetric_strain=scene.model.volumetric_strain)
+    for sinkage in s[:: 3]:
+        last = direct.solve_sinkage(float(sinkage))
+    last = direct.solve_sinkage(4e-3)
+    assert last.vertical_force == pytest.approx(summary["QV_N"], rel=1e-6)
+    assert comm.rank != 0 or (tmp_mpi_path / "force_sinkage.png").stat().st_size > 1000

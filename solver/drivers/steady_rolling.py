@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import pathlib
 import time
+from dataclasses import replace
 
 import numpy as np
 from mpi4py import MPI
@@ -50,15 +51,17 @@ WINDOW = {"half_width": 0.1, "ahead": 0.4, "behind": 0.6, "depth": 0.4, "beside"
 
 def steady_window(scene, extents: dict | None = None) -> RollingWindow:
     """The half window of a steady roll of ``scene`` (m): :data:`WINDOW` (with ``extents`` in its
-    place where given) times the diameter; the fine cells d / (the preset's elements per d, or
-    ``[model] refinement``)."""
+    place where given) times the diameter, each face at least a cell beyond the fine zone; the
+    fine cells d / (the preset's elements per d, or ``[model] refinement``)."""
     d, b = scene.wheel.diameter, scene.wheel.width
     extents = {**WINDOW, **(extents or {})}
     half_width = extents["half_width"] * d
     cells = max(1, round(half_width * scene.model.elements_per_d / d))
-    return RollingWindow(half_width=half_width, ahead=extents["ahead"] * d, behind=extents["behind"] * d,
-                         depth=extents["depth"] * d, cells_per_half_width=cells,
-                         across=b / 2 + extents["beside"] * d, load_half_width_across=b / 2)
+    fine = RollingWindow(half_width=half_width, ahead=10 * d, behind=10 * d, depth=10 * d, cells_per_half_width=cells,
+                         across=10 * (b + d), load_half_width_across=b / 2)
+    reach, h = fine.fine_length + fine.cell_size, fine.cell_size        # the fine zone and one cell more
+    return replace(fine, ahead=max(extents["ahead"] * d, reach), behind=max(extents["behind"] * d, reach),
+                   depth=max(extents["depth"] * d, reach), across=max(b / 2 + extents["beside"] * d, fine.fine_across + h))
 
 
 def run_steady(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_options: dict | None = None,
@@ -108,8 +111,9 @@ def run_steady(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_o
             for s in np.arange(1, CURVE_POINTS + 1) * scene.loading.max_sinkage / CURVE_POINTS:
                 solve(float(s))
         else:
-            results["final"] = _constant_load(steady, scene, solve, states)
-            record(results["final"])
+            final = _constant_load(steady, scene, solve, states)
+            if final is not results["last"]:        # else a step hit the load and is recorded
+                record(final)
         return None
 
     status, reason, diagnostics = run_protected(body, comm, lambda: {"steady_states": len(rows)})
