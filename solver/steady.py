@@ -781,10 +781,15 @@ class SteadyRolling:
     def _point_values(self, expr) -> np.ndarray:
         return compat.evaluate(expr, self.mesh).reshape(self.n_qp, self.ncomp)
 
+    def _at_points(self, rows_values: np.ndarray) -> np.ndarray:
+        """(rows, stations, ...) values in the quadrature points' order, (points, ...)."""
+        flat = np.empty((self.n_qp,) + rows_values.shape[2:])
+        flat[self._order] = rows_values
+        return flat
+
     def _store(self, f: fem.Function, rows_values: np.ndarray) -> None:
         """Put (rows, stations, components) values at their quadrature points of ``f``."""
-        flat = np.empty((self.n_qp, rows_values.shape[-1]))
-        flat[self._order] = rows_values
+        flat = self._at_points(rows_values)
         f.x.array[: flat.size] = flat.reshape(-1)
 
     def _store_traction(self, f: fem.Function, stress: np.ndarray) -> None:
@@ -827,8 +832,7 @@ class SteadyRolling:
     def _stress_bar(self, stress: np.ndarray, reference) -> np.ndarray:
         """The residual's stress of the (rows, stations, components) ``stress``: ``reference +
         projected(stress - reference)``, in the same layout."""
-        change = np.empty((self.n_qp, self.ncomp))
-        change[self._order] = stress - reference
+        change = self._at_points(stress - reference)
         return self._projection.projected(change)[self._order] + reference
 
     def _tangent_sweep(self) -> None:
@@ -885,9 +889,7 @@ class SteadyRolling:
             fpetsc.assemble_matrix(M, self._tangent_form, bcs=self.bcs)
             M.assemble()
             if self._projection is not None:
-                flat = np.empty((self.n_qp, tangent.shape[-1]))
-                flat[self._order] = tangent
-                self._projection.add_jacobian(M, self.bcs, flat)
+                self._projection.add_jacobian(M, self.bcs, self._at_points(tangent))
         else:
             self._elastic_full.copy(M, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
         if self._contact_matrix is not None:
@@ -1270,10 +1272,7 @@ class SteadyRolling:
     def _flat(self, k: int) -> np.ndarray:
         if self._fields is None:
             raise RuntimeError("no steady state computed yet: call solve() first")
-        values = self._fields[k]
-        flat = np.empty((self.n_qp,) + values.shape[2:])
-        flat[self._order] = values
-        return flat
+        return self._at_points(self._fields[k])
 
     def horizontal_balance(self) -> HorizontalBalance:
         """The window's horizontal resultants (N/m) of the last solve: the outflow face's from its

@@ -102,8 +102,8 @@ def run_steady(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_o
 
     def solve(sinkage: float):
         res = steady.solve_free_rolling(sinkage, torque_rtol=TORQUE_RTOL)
-        states[res.sinkage] = (steady.u.x.array.copy(), steady.spin, res.vertical_force)
         record(res)
+        states[res.sinkage] = (*results["state"], res.vertical_force)
         return res
 
     def body():
@@ -120,10 +120,11 @@ def run_steady(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_o
     if rows:                       # the last state recorded (a failed solve leaves another behind)
         steady.u.x.array[:], steady.spin = results["state"]
         steady.residual(steady.inflow)          # its fields swept again
-    summary = _summary(scene, steady, window, rows, results.get("last"), status, reason, diagnostics, t_start,
-                       dofs, alpha)
+    line = _centre_line(steady, rows[-1]["sinkage_m"]) if rows else None
+    summary = _summary(scene, steady, window, rows, results.get("last"), line, status, reason, diagnostics,
+                       t_start, dofs, alpha)
     if rows:
-        _write_rut(out, steady, scene, summary, comm)
+        _write_rut(out, line, scene, summary, comm)
         if write_fields:
             _write_fields(out, steady)
             summary["files"]["fields"] = ["fields/steady.xdmf"]
@@ -176,8 +177,9 @@ def _centre_line(steady: SteadyRolling, sinkage: float) -> dict:
             "contact_length": float(touching.max() - touching.min()) if touching.size > 1 else 0.0}
 
 
-def _summary(scene, steady: SteadyRolling, window: RollingWindow, rows, last, status, reason, diagnostics,
-             t_start: float, dofs: int, alpha) -> dict:
+def _summary(scene, steady: SteadyRolling, window: RollingWindow, rows, last, line: dict | None, status, reason,
+             diagnostics, t_start: float, dofs: int, alpha) -> dict:
+    """``summary.json`` of a steady roll; ``line``: :func:`_centre_line` of the ``last`` state."""
     wall = steady.comm.allreduce(time.perf_counter() - t_start, op=MPI.MAX)
     summary = {"status": status, "reason": reason, "protocol": scene.loading.protocol, "rolling": "steady",
                "scene": scene.to_dict(), "wall_time_s": wall, "ranks": steady.comm.size, "dofs": dofs,
@@ -197,7 +199,6 @@ def _summary(scene, steady: SteadyRolling, window: RollingWindow, rows, last, st
                "files": {"history": "history.csv", "plot": "force_sinkage.png", "rut_profile": "rut_profile.csv",
                          "rut_picture": "rut.png", "fields": []}}
     if last is not None:
-        line = _centre_line(steady, last.sinkage)
         rut = float(line["settlement"][0])                  # at the rear face, where the state has settled
         summary.update(spin=last.spin, rolling_radius_m=steady.wheel.diameter / 2 / last.spin,
                        axle_torque_Nm=last.axle_torque, contact_length_m=line["contact_length"],
@@ -213,9 +214,9 @@ def _summary(scene, steady: SteadyRolling, window: RollingWindow, rows, last, st
     return summary
 
 
-def _write_rut(out: pathlib.Path, steady: SteadyRolling, scene, summary: dict, comm: MPI.Comm) -> None:
-    """``rut_profile.csv`` and ``rut.png``: the surface on the centre line in the moving frame."""
-    line = _centre_line(steady, summary["sinkage_m"])
+def _write_rut(out: pathlib.Path, line: dict, scene, summary: dict, comm: MPI.Comm) -> None:
+    """``rut_profile.csv`` and ``rut.png``: the surface on the centre line (:func:`_centre_line`)
+    in the moving frame."""
     if comm.rank != 0:
         return
     text = "x_m,settlement_m\n" + "".join(f"{x:.6g},{w:.6g}\n" for x, w in zip(line["x"], line["settlement"]))
