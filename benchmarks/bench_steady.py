@@ -1,4 +1,4 @@
-"""Steady rolling (rollsim.solver.steady), two problems:
+"""Steady rolling (rollsim.solver.steady), three problems:
 
 ``hertz``: against transient rolling on the same elements, plane strain, a Hertz line pressure
 (half-width a = 1 m) on von Mises soil (E = 1000 Pa, nu = 0.3, k = 1 Pa).  The steady solve in its
@@ -17,21 +17,23 @@ kPa, gravity) at the sinkages ``--sinkage``, 3D half window of hexahedra; run un
 N``: the solve distributed over the N ranks, then the same solve on one rank (every rank at once,
 each on its own core), their wall times (set-up included) and the speed-up, the forces of the two.
 
-``clay``: the frictionless Mn/DOT cylinder (d = 1.524 m) towed in plane strain over clay (von
-Mises, E = 40 MPa, nu = 0.35, q_y = 200 kPa, gravity), pointwise and B-bar, the sinkage stepped
+``towed``: the frictionless Mn/DOT cylinder (d = 1.524 m) towed in plane strain over ``--soil``:
+clay (von Mises, E = 40 MPa, nu = 0.35, q_y = 200 kPa) or the report's case 5 (Drucker-Prager,
+E = 40 MPa, nu = 0.35, phi_dp = 27.5 deg, c_dp = 194.6 kPa), gravity; pointwise and B-bar, the sinkage stepped
 up (halved where Newton fails) to each of ``--sinkage``: Q_V per metre, the highest heave of the
 surface ahead of the wheel, the surface's forward displacement at the rear face, the largest
 accumulated plastic strain and its depth, the contact's extent along the centre line.
 
-    python benchmarks/bench_steady.py hertz [--p0 3.6 4.5] [--cells-per-half-width 4]
+    python -m benchmarks steady hertz [--p0 3.6 4.5] [--cells-per-half-width 4]
         [--travel 14] [--step 0.0625] [--distance 5] [--out bench_steady.json]
-    mpirun -n 2 python benchmarks/bench_steady.py ranks [--cells-per-half-width 2] [--sinkage 2.5 5]
-    python benchmarks/bench_steady.py clay [--sinkage 2 3 4] [--cells-per-half-width 4]
+    mpirun -n 2 python -m benchmarks steady ranks [--cells-per-half-width 2] [--sinkage 2.5 5]
+    python -m benchmarks steady towed [--soil clay] [--sinkage 2 3 4] [--cells-per-half-width 4]
 """
 from __future__ import annotations
 
 import argparse
 from dataclasses import replace
+import math
 import pathlib
 import sys
 import time
@@ -44,6 +46,7 @@ from test_steady_rolling import (CLAY_3D, K, NEVER_YIELDS, ROLLER, SOIL, differe
                                  residual_part, steady, steady_behind, transient_behind)
 
 from _bench import dump_json  # noqa: E402
+from rollsim.solver.materials import DruckerPrager, VonMises  # noqa: E402
 from rollsim.solver.steady import RollingWindow, SteadyRolling, rolling_window_mesh  # noqa: E402
 
 
@@ -60,25 +63,31 @@ def main() -> int:
     ranks = sub.add_parser("ranks", help="3D roller on clay: the distributed solve against one rank's")
     ranks.add_argument("--cells-per-half-width", type=int, default=2, help="cells per 0.15 m")
     ranks.add_argument("--sinkage", type=float, nargs="+", default=[2.5, 5.0], help="mm, solved in turn")
-    clay = sub.add_parser("clay", help="plane strain, towed cylinder on clay: the surface layer")
-    clay.add_argument("--sinkage", type=float, nargs="+", default=[2.0, 3.0, 4.0], help="mm, in turn")
-    clay.add_argument("--cells-per-half-width", type=int, default=4, help="cells per 0.06 m")
+    towed = sub.add_parser("towed", help="plane strain, towed cylinder on clay or case 5: the surface layer")
+    towed.add_argument("--soil", choices=sorted(TOWED_SOILS), default="clay")
+    towed.add_argument("--sinkage", type=float, nargs="+", default=[2.0, 3.0, 4.0], help="mm, in turn")
+    towed.add_argument("--cells-per-half-width", type=int, default=4, help="cells per 0.06 m")
     args = ap.parse_args()
-    run = {"hertz": hertz_against_transient, "ranks": distributed_against_serial, "clay": clay_surface_layer}
+    run = {"hertz": hertz_against_transient, "ranks": distributed_against_serial, "towed": towed_surface_layer}
     return run[args.problem](args)
 
 
-def clay_surface_layer(args) -> int:
+#: the soils of the ``towed`` problem
+TOWED_SOILS = {"clay": VonMises(E=40e6, nu=0.35, yield_stress=200e3),
+               "case5": DruckerPrager(E=40e6, nu=0.35, phi_dp=math.radians(27.5), c_dp=194.6e3)}
+
+
+def towed_surface_layer(args) -> int:
+    """The ``towed`` problem (module docstring)."""
     from rollsim.solver.contact import Circle
-    from rollsim.solver.materials import VonMises
     from rollsim.solver.steady import NoSteadyState
-    clay, R = VonMises(E=40e6, nu=0.35, yield_stress=200e3), 0.762
+    soil, R = TOWED_SOILS[args.soil], 0.762
     window = RollingWindow(half_width=0.06, ahead=0.9, behind=1.2, depth=0.9,
                            cells_per_half_width=args.cells_per_half_width)
     print("strain        s (mm)  Q_V (kN/m)  heave ahead (mm)  u_x at rear (mm)  max eps_p  at depth (mm)  "
           "contact x (mm)  time (s)")
     for strain in ("pointwise", "cell-average"):
-        st = SteadyRolling(rolling_window_mesh(MPI.COMM_SELF, window), clay, wheel=Circle(diameter=2 * R),
+        st = SteadyRolling(rolling_window_mesh(MPI.COMM_SELF, window), soil, wheel=Circle(diameter=2 * R),
                            unit_weight=20e3, volumetric_strain=strain)
         t0, s, step = time.perf_counter(), 0.0, 1e-3
         for target in np.array(args.sinkage) * 1e-3:

@@ -777,6 +777,9 @@ def test_steady_scene_runs_end_to_end(comm, tmp_mpi_path):
     assert all(float(r["travel_m"]) == 0.0 for r in rows)
     assert 0 < summary["rut_depth_m"] < summary["sinkage_m"]
     assert summary["rebound_m"] == pytest.approx(summary["sinkage_m"] - summary["rut_depth_m"])
+    # lightly loaded: the surface leaves nearly where it came in, no warning of soil shoved ahead
+    assert abs(summary["surface_forward_m"]) < summary["sinkage_m"]
+    assert not any("shoves" in w for w in summary.get("warnings", []))
     assert abs(summary["axle_torque_Nm"]) <= 1e-4 * 0.762 * 40e3
     assert summary["QH_N"] > 0 and 0.9 < summary["spin"] < 1.1
     assert summary["rolling_radius_m"] == pytest.approx(0.762 / summary["spin"])
@@ -785,6 +788,9 @@ def test_steady_scene_runs_end_to_end(comm, tmp_mpi_path):
         for name in ("rut_profile.csv", "rut.png", "force_sinkage.png", "fields/steady.xdmf"):
             assert (tmp_mpi_path / name).stat().st_size > 100, name
         assert json.loads((tmp_mpi_path / "summary.json").read_text())["rut_depth_m"] == summary["rut_depth_m"]
+        profile = list(csv.DictReader((tmp_mpi_path / "rut_profile.csv").open()))
+        assert float(profile[0]["settlement_m"]) == pytest.approx(summary["rut_depth_m"], rel=1e-5)
+        assert float(profile[0]["forward_m"]) == pytest.approx(summary["surface_forward_m"], rel=1e-5)
         assert "## Steady rolling" in run_report(tmp_mpi_path).read_text()
 
 

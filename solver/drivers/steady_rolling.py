@@ -167,13 +167,14 @@ def _row(step: int, res, d: float, t_start: float) -> dict:
 
 def _centre_line(steady: SteadyRolling, sinkage: float) -> dict:
     """On the wheel's centre line (y = 0): the surface's x (m, rear to front), settlement (m, down
-    positive) and the contact length (m: the extent of the surface nodes the wheel penetrates)."""
+    positive), displacement in the direction of travel (m) and the contact length (m: the extent of
+    the surface nodes the wheel penetrates)."""
     x, u = steady.surface_displacement()
     R = steady.wheel.diameter / 2
     axle = steady.surface + R - sinkage
     gap = np.hypot(x + u[:, 0], steady.surface + u[:, -1] - axle) - R
     touching = x[gap < 0]
-    return {"x": x, "settlement": -u[:, -1],
+    return {"x": x, "settlement": -u[:, -1], "forward": u[:, 0],
             "contact_length": float(touching.max() - touching.min()) if touching.size > 1 else 0.0}
 
 
@@ -200,15 +201,22 @@ def _summary(scene, steady: SteadyRolling, window: RollingWindow, rows, last, li
                          "rut_picture": "rut.png", "fields": []}}
     if last is not None:
         rut = float(line["settlement"][0])                  # at the rear face, where the state has settled
+        forward = float(line["forward"][0])
         summary.update(spin=last.spin, rolling_radius_m=steady.wheel.diameter / 2 / last.spin,
                        axle_torque_Nm=last.axle_torque, contact_length_m=line["contact_length"],
-                       rut_depth_m=rut, rebound_m=last.sinkage - rut,
+                       rut_depth_m=rut, rebound_m=last.sinkage - rut, surface_forward_m=forward,
                        max_accumulated_plastic_strain=last.max_accumulated_plastic_strain,
                        krylov_iterations_last=last.krylov_iterations)
         if line["contact_length"] > 2 * window.fine_length:
             summary.setdefault("warnings", []).append(
                 f"the contact ({line['contact_length']:.3g} m) reaches beyond the window's fine zone "
                 f"(+-{window.fine_length:.3g} m): refine with a larger [model] refinement")
+        if forward > last.sinkage:
+            summary.setdefault("warnings", []).append(
+                f"the surface leaves the window moved forward by {1e3 * forward:.3g} mm, "
+                f"{forward / last.sinkage:.2g} times the sinkage: the wheel shoves the soil ahead of it, which "
+                'the small-strain steady state does not describe (docs/limitations.md, "Steady rolling: how far it '
+                'reaches")')
     if diagnostics:
         summary["diagnostics"] = diagnostics
     return summary
@@ -219,7 +227,8 @@ def _write_rut(out: pathlib.Path, line: dict, scene, summary: dict, comm: MPI.Co
     in the moving frame."""
     if comm.rank != 0:
         return
-    text = "x_m,settlement_m\n" + "".join(f"{x:.6g},{w:.6g}\n" for x, w in zip(line["x"], line["settlement"]))
+    text = "x_m,settlement_m,forward_m\n" + "".join(
+        f"{x:.6g},{w:.6g},{f:.6g}\n" for x, w, f in zip(line["x"], line["settlement"], line["forward"]))
     atomic_write_text(out / "rut_profile.csv", text)
     try:
         plt = _pyplot()
