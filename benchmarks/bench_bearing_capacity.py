@@ -1,9 +1,9 @@
 """Throughput of the bearing-capacity model's Python API (prints figures; not a test).
 
-    python benchmarks/bench_bearing_capacity.py [N]
+    python -m benchmarks bearing_capacity [N]
 """
+import argparse
 import math
-import sys
 import time
 
 import numpy as np
@@ -50,4 +50,6 @@ def main(n: int = 10_000) -> None:
 
 
 if __name__ == "__main__":
-    main(int(sys.argv[1]) if len(sys.argv) > 1 else 10_000)
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("points", type=int, nargs="?", default=10_000, help="points per call")
+    main(ap.parse_args().points)

@@ -1,10 +1,10 @@
 """How large the soil block must be: the answer against the block's size at a fixed element size.
 
-    python benchmarks/bench_block_size.py --scene rolling-case5 --refinement 8 \\
+    python -m benchmarks block_size --scene rolling-case5 --refinement 8 \\
         --block 2.6:0.8:0.8:0.3:0.4 2.6:0.8:0.8:0.2:0.25 2.6:1.5:1.5:0.3:0.4 2.6:2.2:2.2:0.3:0.4
-    python benchmarks/bench_block_size.py --scene indentation-vm --refinement 16 \\
+    python -m benchmarks block_size --scene indentation-vm --refinement 16 \\
         --block 0.75:0.75 1:1 1.5:1.5 2.5:2.5
-    python benchmarks/bench_block_size.py --table
+    python -m benchmarks block_size --table
 
 Scenes (as ``bench_speed_accuracy.py``):
 

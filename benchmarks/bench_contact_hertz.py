@@ -5,7 +5,7 @@ half-width a (from the pressure's second moment) and the peak pressure p0 agains
 (a = sqrt(4 R P'/(pi E*)), p0 = 2P'/(pi a)), the penetration / h and the Newton iterations.
 R = 0.5 m, E = 10 MPa, nu = 0.3, block 1 m x 1 m (half, symmetric), indentation 6 mm (a ~ 0.04 m).
 
-    python benchmarks/bench_contact_hertz.py [--out bench_contact_hertz.json]
+    python -m benchmarks contact_hertz [--out bench_contact_hertz.json]
 """
 from __future__ import annotations
 

@@ -9,8 +9,8 @@ radius a (from the pressure's second moment) and the peak pressure p0 against He
 combined modulus, the L2 distance of the pressure at the integration points from Hertz's, and
 the Newton iterations.
 
-    python benchmarks/bench_contact_pair.py --out benchmarks/results/contact_pair.json
-    python benchmarks/bench_contact_pair.py --dim 3 --out benchmarks/results/contact_pair_3d.json
+    python -m benchmarks contact_pair --out benchmarks/results/contact_pair.json
+    python -m benchmarks contact_pair --dim 3 --out benchmarks/results/contact_pair_3d.json
 """
 from __future__ import annotations
 

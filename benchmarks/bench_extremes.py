@@ -1,13 +1,13 @@
 """Extremes matrix: every corner of the soil range run with default settings, each cell ending
 ``ok``, ``exceeds_capacity`` or a named clean failure within a wall-time guard (never a hang).
 
-    python benchmarks/bench_extremes.py --out benchmarks/results/extremes_fast.json
-    python benchmarks/bench_extremes.py --model relaxation_fallback=0 --out benchmarks/results/extremes_fast.json
-    python benchmarks/bench_extremes.py --accuracy standard --out benchmarks/results/extremes_standard.json
-    python benchmarks/bench_extremes.py --model relaxation_fallback="0.005 mm" --cells relaxed \\
+    python -m benchmarks extremes --out benchmarks/results/extremes_fast.json
+    python -m benchmarks extremes --model relaxation_fallback=0 --out benchmarks/results/extremes_fast.json
+    python -m benchmarks extremes --accuracy standard --out benchmarks/results/extremes_standard.json
+    python -m benchmarks extremes --model relaxation_fallback="0.005 mm" --cells relaxed \\
         --out benchmarks/results/extremes_fast.json      # the cells the plain scenes relaxed, length halved
-    python benchmarks/bench_extremes.py --cells fast --out fast_subset.json      # the test suite's cells
-    python benchmarks/bench_extremes.py --table benchmarks/results/extremes_fast.json
+    python -m benchmarks extremes --cells fast --out fast_subset.json      # the test suite's cells
+    python -m benchmarks extremes --table benchmarks/results/extremes_fast.json
 
 Each cell is a plain ``rollsim run`` indentation scene (Mn/DOT wheel d = 1.524 m, mu = 0.8,
 gamma = 20 kN/m^3, pushed to s/d = 0.1, no ``[model]`` key but the preset): its materials, the

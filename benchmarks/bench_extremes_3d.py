@@ -1,8 +1,8 @@
 """Extreme soils on the 3D wheel (quarter block, fast preset): each case either converges or
 fails with a clear message and the last converged state kept - never hangs (wall-clock guard).
 
-    python benchmarks/bench_extremes_3d.py --out bench_extremes_3d.json
-    python benchmarks/bench_extremes_3d.py --cases tiny_load above_capacity --max-wall 120
+    python -m benchmarks extremes_3d --out bench_extremes_3d.json
+    python -m benchmarks extremes_3d --cases tiny_load above_capacity --max-wall 120
 
 Mn/DOT wheel d = 1.524 m, b = 0.4572 m, fillet b/12, mu = 0.8, gamma = 20 kN/m^3; pushed to
 s/d = ``--sinkage`` (displacement control) unless the case is load-controlled.  Base soil: report

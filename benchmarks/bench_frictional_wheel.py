@@ -2,10 +2,10 @@
 bearing-capacity model, and the sensitivity to the regularising cohesion c_reg or, with c = 0
 exactly, to the Duvaut-Lions relaxation length (mm of sinkage).
 
-    python benchmarks/bench_frictional_wheel.py                       # phi 35 40 45, c_reg = 1 kPa
-    python benchmarks/bench_frictional_wheel.py --phi 40 --creg 2 1 0.5 --out bench_c0.json
-    python benchmarks/bench_frictional_wheel.py --phi 40 --creg 0 --max-wall 1800   # c = 0 exactly
-    python benchmarks/bench_frictional_wheel.py --phi 40 --creg 0 --relaxation-length 0 0.0078125 0.00390625
+    python -m benchmarks frictional_wheel                       # phi 35 40 45, c_reg = 1 kPa
+    python -m benchmarks frictional_wheel --phi 40 --creg 2 1 0.5 --out bench_c0.json
+    python -m benchmarks frictional_wheel --phi 40 --creg 0 --max-wall 1800   # c = 0 exactly
+    python -m benchmarks frictional_wheel --phi 40 --creg 0 --relaxation-length 0 0.0078125 0.00390625
 
 Setup: wheel d = 1.524 m, b = 0.4572 m (fillet b/12), mu = 0.8, quarter block at the
 ``fast`` preset, E = 40 MPa, nu = 0.35, gamma = 20 kN/m^3, K0 default (clipped into the cone),

@@ -1,12 +1,12 @@
 """3D rigid-wheel indentation (quarter model) for report cases: Q_V(s) to s/d = 0.1, presets compared.
 
-    python benchmarks/bench_indentation.py --cases 2 5 --accuracy fast standard [accurate] --out bench_indentation.json
-    python benchmarks/bench_indentation.py --c0 --accuracy fast standard     # c = 0, phi = 35/40/45 deg
-    mpirun -n 2 python benchmarks/bench_indentation.py --cases 2 --accuracy standard accurate --s-end 0.05 \
+    python -m benchmarks indentation --cases 2 5 --accuracy fast standard [accurate] --out bench_indentation.json
+    python -m benchmarks indentation --c0 --accuracy fast standard     # c = 0, phi = 35/40/45 deg
+    mpirun -n 2 python -m benchmarks indentation --cases 2 --accuracy standard accurate --s-end 0.05 \
         --fixed-steps 4                                                       # standard vs accurate within 3 %
-    mpirun -n 2 python benchmarks/bench_indentation.py --cases 2 --accuracy standard --s-end 0.05 \
+    mpirun -n 2 python -m benchmarks indentation --cases 2 --accuracy standard --s-end 0.05 \
         --step 0.000625 --volumetric-strain cell-average                      # equal steps of 0.000625 s/d
-    mpirun -n 2 python benchmarks/bench_indentation.py --solve-cost --accuracy standard accurate \
+    mpirun -n 2 python -m benchmarks indentation --solve-cost --accuracy standard accurate \
         --linear-solver direct iterative                                      # cost of one solve
 
 ``--volumetric-strain cell-average``: B-bar (see docs/theory.md, "Volumetric strain: B-bar or pointwise").  ``--checkpoint DIR``:

@@ -1,7 +1,7 @@
 """Small strain against updated Lagrangian (incremental large deformation): where they differ.
 
-    python benchmarks/bench_kinematics.py --out bench_kinematics.json
-    mpirun -n 2 python benchmarks/bench_kinematics.py --s-end 0.15 --rolling
+    python -m benchmarks kinematics --out bench_kinematics.json
+    mpirun -n 2 python -m benchmarks kinematics --s-end 0.15 --rolling
 
 Soil: report case 2 (von Mises, q_y = ``--yield-stress`` kPa, E = ``--E`` MPa, nu = 0.35,
 gamma = 20 kN/m^3); Mn/DOT roller wheel (d = 1.524 m, b = 0.4572 m, fillet b/12), ``--accuracy``.

@@ -1,6 +1,6 @@
 """FE rolling against the laboratory rolling tests on the very soft clay, and the analytic model.
 
-    mpirun -n 2 python benchmarks/bench_lab_rolling.py --series clay_large clay_small --out bench_lab.json
+    mpirun -n 2 python -m benchmarks lab_rolling --series clay_large clay_small --out bench_lab.json
 
 Data: ``studies/data/lab_rolling.csv`` (steady Q_V of a towed aluminium wheel with a sandpaper
 surface, the bed translated at a fixed sinkage) and the report's laboratory tests

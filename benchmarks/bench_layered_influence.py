@@ -1,7 +1,7 @@
 """Influence depth of a weak lower layer under the rolling wheel: FE (constant load) vs the model.
 
-    mpirun -n 2 python benchmarks/bench_layered_influence.py --cases 17 18 19 --out bench_layered.json
-    mpirun -n 2 python benchmarks/bench_layered_influence.py --cases 13 14 15 --relaxation-length 1
+    mpirun -n 2 python -m benchmarks layered_influence --cases 17 18 19 --out bench_layered.json
+    mpirun -n 2 python -m benchmarks layered_influence --cases 13 14 15 --relaxation-length 1
 
 Cases of ``studies/data/cases_layered.csv`` (three layers of 0.4 d over a fixed base; Mn/DOT roller,
 d = 1.524 m, b = 0.4572 m, mu = 0.8, nu = 0.35, gamma = 20 kN/m^3; Drucker-Prager per layer),

@@ -1,4 +1,4 @@
-"""Mesh build time and size per accuracy preset: python benchmarks/bench_mesh.py [fast standard accurate].
+"""Mesh build time and size per accuracy preset: python -m benchmarks mesh [fast standard accurate].
 
 Run under mpirun to include the distribution cost; rank 0 prints one line per case.
 """

@@ -1,8 +1,8 @@
 """Side by side with CalculiX: a rigid cylinder pressed into a von Mises block, with friction.
 
-    python benchmarks/bench_peer_calculix.py                          # 8 and 12 elements / d, 1 and 2 ranks
-    python benchmarks/bench_peer_calculix.py --refinement 8 --ranks 1  # one level, serial
-    python benchmarks/bench_peer_calculix.py --report                  # table from the saved JSON
+    python -m benchmarks peer_calculix                          # 8 and 12 elements / d, 1 and 2 ranks
+    python -m benchmarks peer_calculix --refinement 8 --ranks 1  # one level, serial
+    python -m benchmarks peer_calculix --report                  # table from the saved JSON
 
 The problem: the Mn/DOT wheel (d = 1.524 m, b = 0.4572 m, edge fillet b/12) on the report case-2
 soil (E = 40 MPa, nu = 0.35, von Mises q_y = 200 kPa), Coulomb friction mu = 0.8, weightless

@@ -1,12 +1,12 @@
 """Cost of retrying a failed rolling step with the wheel's pose held, against cutting it at once.
 
-    python benchmarks/bench_pose_retry.py --soil case5 --refinement 6 --hexahedra --relaxation-length 0.5 \
+    python -m benchmarks pose_retry --soil case5 --refinement 6 --hexahedra --relaxation-length 0.5 \
         --volumetric-strain cell-average --out benchmarks/results/pose_retry.json
-    python benchmarks/bench_pose_retry.py --soil clay --refinement 6 --hexahedra \
+    python -m benchmarks pose_retry --soil clay --refinement 6 --hexahedra \
         --volumetric-strain cell-average --out benchmarks/results/pose_retry.json
-    python benchmarks/bench_pose_retry.py --soil case2 --refinement 6 --hexahedra \
+    python -m benchmarks pose_retry --soil case2 --refinement 6 --hexahedra \
         --volumetric-strain pointwise --out benchmarks/results/pose_retry.json
-    python benchmarks/bench_pose_retry.py --table benchmarks/results/pose_retry.json
+    python -m benchmarks pose_retry --table benchmarks/results/pose_retry.json
 
 A constant-load level of ``bench_rolling_convergence.py`` runs twice in one process: with the
 step's bordered Newton solve retried, when it fails, with the pose held until the soil has

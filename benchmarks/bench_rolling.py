@@ -1,9 +1,9 @@
 """Towed rigid wheel, protocol rolling-continuous (half model): report case vs the bearing-capacity
 model, and the effect of halving the sinkage ramp rate.
 
-    python benchmarks/bench_rolling.py --out bench_rolling.json                 # defaults below
-    python benchmarks/bench_rolling.py --mu 0 0.8 --length 3.5 --half-width 1.5 --depth 1.5   # report block
-    mpirun -n 2 python benchmarks/bench_rolling.py --mu 0 --s0 0.01 --s-end 0.055 --travel 2.25 --halve \
+    python -m benchmarks rolling --out bench_rolling.json                 # defaults below
+    python -m benchmarks rolling --mu 0 0.8 --length 3.5 --half-width 1.5 --depth 1.5   # report block
+    mpirun -n 2 python -m benchmarks rolling --mu 0 --s0 0.01 --s-end 0.055 --travel 2.25 --halve \
         --length 5.7 --half-width 0.8 --depth 0.8 --read 0.03 0.04 0.05 --window 0.005      # ramp 0.02 vs 0.01
 
 Report case 2 (von Mises, c_dp = 200 kPa -> c = 100 kPa, phi = 0; E = 40 MPa, nu = 0.35,

@@ -1,9 +1,9 @@
 """A rolling scene on tetrahedra against hexahedra refined across the wheel, in one run.
 
-    mpirun -n 2 python benchmarks/bench_rolling_cells.py --out benchmarks/results/rolling_cells.json
-    mpirun -n 2 python benchmarks/bench_rolling_cells.py --variant "tetrahedra, fast" standard \
+    mpirun -n 2 python -m benchmarks rolling_cells --out benchmarks/results/rolling_cells.json
+    mpirun -n 2 python -m benchmarks rolling_cells --variant "tetrahedra, fast" standard \
         --work runs --out benchmarks/results/rolling_cells_standard.json
-    python benchmarks/bench_rolling_cells.py --table benchmarks/results/rolling_cells.json
+    python -m benchmarks rolling_cells --table benchmarks/results/rolling_cells.json
 
 Runs the scene (default ``examples/rolling_constant_load_mndot.toml``: the Mn/DOT roller at 133.5 kN
 towed onto the case-5 soil) through ``rollsim run``'s driver once per mesh variant, one after the

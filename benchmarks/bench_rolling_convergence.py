@@ -1,10 +1,10 @@
 """Mesh convergence of the constant-load steady sinkage, for both volumetric strains.
 
-    python benchmarks/bench_rolling_convergence.py --soil clay --refinement 8 10 12 \\
+    python -m benchmarks rolling_convergence --soil clay --refinement 8 10 12 \\
         --out benchmarks/results/rolling_convergence_clay.json
-    python benchmarks/bench_rolling_convergence.py --soil case5 --refinement 8 10 12 \\
+    python -m benchmarks rolling_convergence --soil case5 --refinement 8 10 12 \\
         --out benchmarks/results/rolling_convergence_case5.json
-    python benchmarks/bench_rolling_convergence.py --table benchmarks/results/rolling_convergence_*.json
+    python -m benchmarks rolling_convergence --table benchmarks/results/rolling_convergence_*.json
 
 Scenes (Mn/DOT roller, d = 1.524 m, b = 0.4572 m, towed at constant load on a half block of
 2.6 x 0.8 x 0.8 d with a 0.5 d stiff start zone, as ``bench_rolling_protocols.py``):

@@ -1,7 +1,7 @@
 """The two rolling protocols agree, and the effect of wheel friction at constant load.
 
-    python benchmarks/bench_rolling_protocols.py --out bench_rolling_protocols.json
-    mpirun -n 2 python benchmarks/bench_rolling_protocols.py --load 100 --mu 0 0.8
+    python -m benchmarks rolling_protocols --out bench_rolling_protocols.json
+    mpirun -n 2 python -m benchmarks rolling_protocols --load 100 --mu 0 0.8
 
 Soil: clay, von Mises q_y = ``--yield-stress`` (default 300 kPa, i.e. c = 150 kPa), E = 40 MPa,
 nu = 0.35, gamma = 20 kN/m^3; Mn/DOT roller wheel d = 1.524 m, b = 0.4572 m; half block
@@ -23,7 +23,7 @@ For each friction coefficient mu:
    0.5 d) and the sinkage at which this steady curve carries the load (Q_V slope from the ramp's
    last half).  This removes the ramp-rate bias of step 2 (the wheel is still descending there).
 
-    mpirun -n 2 python benchmarks/bench_rolling_protocols.py --mu 0 --length 2.6 --cl-travel 1.5 \
+    mpirun -n 2 python -m benchmarks rolling_protocols --mu 0 --length 2.6 --cl-travel 1.5 \
         --skip-continuous --hold --s0 0.002 --ramp 1.0 --travel 2.0 --cont-length 3.2
 
 ``--checkpoint DIR`` writes the state of each rolling run every ``--checkpoint-every`` steps;

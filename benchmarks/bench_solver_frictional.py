@@ -1,6 +1,6 @@
 """Robustness benchmark of rollsim.solver: purely frictional soil, smoothed Mohr-Coulomb, extremes.
 
-    .venv/bin/python benchmarks/bench_solver_frictional.py [--out bench_solver_frictional.json]
+    .venv/bin/python -m benchmarks solver_frictional [--out bench_solver_frictional.json]
         [--quick]        meshes n <= 8 (default n <= 16)
         [--before]       also run the old stepping (predictor 'none') at n = 8 (~12 min)
         [--cases 1 2 3 4] which cases to run (default all)

@@ -1,8 +1,8 @@
 """Full-resolution Prandtl strip-footing benchmark of rollsim.solver (prints figures, writes JSON).
 
-    .venv/bin/python benchmarks/bench_solver_prandtl.py [--out bench_solver_prandtl.json] [--quick]
-    mpirun -n 2 .venv/bin/python benchmarks/bench_solver_prandtl.py --out bench_np2.json
-    .venv/bin/python benchmarks/bench_solver_prandtl.py --volumetric-strain cell-average   # B-bar tables
+    .venv/bin/python -m benchmarks solver_prandtl [--out bench_solver_prandtl.json] [--quick]
+    mpirun -n 2 .venv/bin/python -m benchmarks solver_prandtl --out bench_np2.json
+    .venv/bin/python -m benchmarks solver_prandtl --volumetric-strain cell-average   # B-bar tables
 
 Cases (weightless, smooth rigid strip, half model 2.5B x 2.5B, P2 triangles, crossed, graded):
   * von Mises matched to Tresca c (plane strain): p_lim -> (2 + pi) c, meshes n = 2..16

@@ -1,8 +1,8 @@
 """What each mesh level costs and how wrong it is: the speed-accuracy trade of the presets.
 
-    python benchmarks/bench_speed_accuracy.py --ranks 1 2          # run what is missing, then report
-    python benchmarks/bench_speed_accuracy.py --report             # table and figure from the saved JSON
-    mpirun -n 2 python benchmarks/bench_speed_accuracy.py --profile indentation-vm --refinement standard
+    python -m benchmarks speed_accuracy --ranks 1 2          # run what is missing, then report
+    python -m benchmarks speed_accuracy --report             # table and figure from the saved JSON
+    mpirun -n 2 python -m benchmarks speed_accuracy --profile indentation-vm --refinement standard
 
 Scenes (Mn/DOT roller, d = 1.524 m, b = 0.4572 m; each with the scene default volumetric strain
 of its protocol on the fast preset, for every level, unless ``--volumetric-strain`` is given):

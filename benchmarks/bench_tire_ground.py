@@ -1,7 +1,7 @@
 """Pneumatic tire on rigid flat ground: load against deflection at several inflation pressures.
 
-    python benchmarks/bench_tire_ground.py --pressure 400 650 900 --size 0.15
-    python benchmarks/bench_tire_ground.py --pressure 650 --size 0.15 0.1 --out tire_ground.json
+    python -m benchmarks tire_ground --pressure 400 650 900 --size 0.15
+    python -m benchmarks tire_ground --pressure 650 --size 0.15 0.1 --out tire_ground.json
 
 Mn/DOT-size tire (d = 1.524 m, b = 0.3 d, hub 0.5 d, shoulder radius 0.08 d; tread 0.046 d,
 transition 0.6 t, sidewall 0.2 t), half model, P2 hexahedra of ``--size`` (m), compressible

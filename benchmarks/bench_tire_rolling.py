@@ -1,9 +1,9 @@
 """The towed pneumatic tire against a towed rigid wheel of its size, at constant load on the same
 soil, through ``rollsim run`` of ``examples/pneumatic_rolling.toml``.
 
-    python benchmarks/bench_tire_rolling.py --wheel pneumatic rigid --refinement 6 8 \\
+    python -m benchmarks tire_rolling --wheel pneumatic rigid --refinement 6 8 \\
         --out benchmarks/results/tire_rolling.json
-    python benchmarks/bench_tire_rolling.py --table benchmarks/results/tire_rolling.json
+    python -m benchmarks tire_rolling --table benchmarks/results/tire_rolling.json
 
 For each wheel (``pneumatic``: the example; ``rigid``: a cylinder of the same diameter and width,
 fillet b/12, with the example's friction) and each ``--refinement`` (elements per d) the example

@@ -1,10 +1,10 @@
 """Pneumatic against rigid wheel on a clay, and the tire's mesh convergence on soil.
 
-    python benchmarks/bench_tire_soil.py --out benchmarks/results/tire_soil.json
-    python benchmarks/bench_tire_soil.py --levels 6:0.15 9:0.1 --rigid 8 12
-    python benchmarks/bench_tire_soil.py --levels --rigid 9 12 16 --rigid-hexahedra \
+    python -m benchmarks tire_soil --out benchmarks/results/tire_soil.json
+    python -m benchmarks tire_soil --levels 6:0.15 9:0.1 --rigid 8 12
+    python -m benchmarks tire_soil --levels --rigid 9 12 16 --rigid-hexahedra \
         --out benchmarks/results/rigid_hexahedra.json
-    python benchmarks/bench_tire_soil.py --levels --rigid 9 12 16 --rigid-hexahedra --projection 0
+    python -m benchmarks tire_soil --levels --rigid 9 12 16 --rigid-hexahedra --projection 0
 
 A tire of the Mn/DOT roller's size (d = 1.524 m, b = 0.3 d, hub 0.5 d, shoulder radius 0.08 d,
 carcass E = ``--E`` MPa, nu = 0.45, inflated to ``--pressure`` kPa) and a rigid cylinder of the

@@ -93,6 +93,23 @@ def test_every_page_is_in_the_index():
     assert listed - pages == set(), f"toctree entries without a page: {listed - pages}"
 
 
+def test_benchmark_commands_name_a_benchmark():
+    """Every ``python -m benchmarks NAME`` in the docs and the benchmarks' own docstrings names
+    one the entry point lists (it lists without importing them: no MPI start)."""
+    listed = subprocess.run([sys.executable, "-m", "benchmarks"], cwd=ROOT, capture_output=True, text=True,
+                            timeout=60)
+    assert listed.returncode == 0, listed.stderr
+    names = {line.split()[0] for line in listed.stdout.splitlines()[1:] if line.strip()}
+    assert names == {p.stem[len("bench_"):] for p in (ROOT / "benchmarks").glob("bench_*.py")}
+    cited = {(path.name, m.group(1)) for path in [*PAGES, *(ROOT / "benchmarks").glob("*.py")]
+             for m in re.finditer(r"python -m benchmarks ([a-z][\w-]*)", path.read_text())}
+    assert len(cited) > 20
+    assert not [c for c in cited if c[1] not in names], [c for c in cited if c[1] not in names]
+    wrong = subprocess.run([sys.executable, "-m", "benchmarks", "no_such_benchmark"], cwd=ROOT,
+                           capture_output=True, text=True, timeout=60)
+    assert wrong.returncode == 2 and "no_such_benchmark" in wrong.stderr
+
+
 _POINTER = re.compile(r'docs/([\w.-]+\.md)(?:,\s*"([^"\n]+)")?')
 
 
