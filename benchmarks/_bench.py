@@ -95,3 +95,17 @@ def observed_order(h: list[float], f: list[float]) -> tuple[float, float] | None
             break
         p = p_new
     return p, f[0] + (f[0] - f[1]) / (r21 ** p - 1)
+
+
+def run_problems(problems: dict, doc: str, argv: list[str] | None = None) -> int:
+    """A benchmark of several problems: ``python -m benchmarks NAME PROBLEM [ARGS]`` runs
+    ``problems[PROBLEM](ARGS)`` (each parses its own options); without a problem or with
+    ``--help``, the benchmark's docstring ``doc``; an unknown problem exits 2 naming the choices."""
+    argv = sys.argv[1:] if argv is None else list(argv)
+    if not argv or argv[0] in ("-h", "--help"):
+        print(doc.strip())
+        return 0
+    if argv[0] not in problems:
+        print(f"no problem {argv[0]!r}; one of: {', '.join(problems)}", file=sys.stderr)
+        return 2
+    return problems[argv[0]](argv[1:]) or 0

@@ -1,12 +1,14 @@
-"""3D rigid-wheel indentation (quarter model) for report cases: Q_V(s) to s/d = 0.1, presets compared.
+"""Indentation of the 3D rigid wheel: report cases, c = 0 soil, kinematics, three problems.
 
-    python -m benchmarks indentation --cases 2 5 --accuracy fast standard [accurate] --out bench_indentation.json
-    python -m benchmarks indentation --c0 --accuracy fast standard     # c = 0, phi = 35/40/45 deg
-    mpirun -n 2 python -m benchmarks indentation --cases 2 --accuracy standard accurate --s-end 0.05 \
+``cases``: 3D rigid-wheel indentation (quarter model) for report cases: Q_V(s) to s/d = 0.1, presets compared.
+
+    python -m benchmarks indentation cases --cases 2 5 --accuracy fast standard [accurate] --out bench_indentation.json
+    python -m benchmarks indentation cases --c0 --accuracy fast standard     # c = 0, phi = 35/40/45 deg
+    mpirun -n 2 python -m benchmarks indentation cases --cases 2 --accuracy standard accurate --s-end 0.05 \\
         --fixed-steps 4                                                       # standard vs accurate within 3 %
-    mpirun -n 2 python -m benchmarks indentation --cases 2 --accuracy standard --s-end 0.05 \
+    mpirun -n 2 python -m benchmarks indentation cases --cases 2 --accuracy standard --s-end 0.05 \\
         --step 0.000625 --volumetric-strain cell-average                      # equal steps of 0.000625 s/d
-    mpirun -n 2 python -m benchmarks indentation --solve-cost --accuracy standard accurate \
+    mpirun -n 2 python -m benchmarks indentation cases --solve-cost --accuracy standard accurate \\
         --linear-solver direct iterative                                      # cost of one solve
 
 ``--volumetric-strain cell-average``: B-bar (see docs/theory.md, "Volumetric strain: B-bar or pointwise").  ``--checkpoint DIR``:
@@ -18,6 +20,40 @@ Prints Q_V at s/d = 0.02, 0.05, 0.1, the bearing-capacity model (indentation, D 
 case's compression-matched (c, phi), steps, Newton iterations, cuts and wall time, and the
 relative difference of each preset from the finest one run.  ``--linear-solver``: the Newton
 iteration's linear solver (default "auto": MUMPS LU up to 100 000 dofs, GMRES + AMG above).
+
+``frictional``: Purely frictional soil (c = 0) under the rigid wheel: 3D indentation to s/d = 0.1 against the
+bearing-capacity model, and the sensitivity to the regularising cohesion c_reg or, with c = 0
+exactly, to the Duvaut-Lions relaxation length (mm of sinkage).
+
+    python -m benchmarks indentation frictional                       # phi 35 40 45, c_reg = 1 kPa
+    python -m benchmarks indentation frictional --phi 40 --creg 2 1 0.5 --out bench_c0.json
+    python -m benchmarks indentation frictional --phi 40 --creg 0 --max-wall 1800   # c = 0 exactly
+    python -m benchmarks indentation frictional --phi 40 --creg 0 --relaxation-length 0 0.0078125 0.00390625
+
+Setup: wheel d = 1.524 m, b = 0.4572 m (fillet b/12), mu = 0.8, quarter block at the
+``fast`` preset, E = 40 MPa, nu = 0.35, gamma = 20 kN/m^3, K0 default (clipped into the cone),
+Drucker-Prager matched to Mohr-Coulomb (c_reg, phi) in plane strain (``--match``), psi = 0,
+penalty alpha = 1 (``--alpha``), gravity first.  Prints Q_V at s/d = 0.02 / 0.05 / 0.1 (FE and the
+bearing-capacity model with c = 0, indentation mode), their ratio, steps, Newton iterations, step
+cuts and wall time; with several relaxation lengths, their Q_V against the rate-independent run
+and two extrapolations to L -> 0.  Serial; each run is stopped by a wall-clock guard
+(``--max-wall``).
+
+``kinematics``: Small strain against updated Lagrangian (incremental large deformation): where they differ.
+
+    python -m benchmarks indentation kinematics --out bench_kinematics.json
+    mpirun -n 2 python -m benchmarks indentation kinematics --s-end 0.15 --rolling
+
+Soil: report case 2 (von Mises, q_y = ``--yield-stress`` kPa, E = ``--E`` MPa, nu = 0.35,
+gamma = 20 kN/m^3); Mn/DOT roller wheel (d = 1.524 m, b = 0.4572 m, fillet b/12), ``--accuracy``.
+
+1. Indentation (quarter block, mu = ``--mu``) to ``--s-end`` d, both kinematics, landing on the
+   same sinkages: Q_V(s) and UL / small strain - 1.
+2. With ``--rolling``: the continuous protocol (half block ``--length`` d long, frictionless
+   unless ``--rolling-mu``), pressed to 0.005 d and rolled ``--travel`` d while the sinkage is
+   ramped to ``--rolling-s-end`` d; mean Q_V and Q_H over bins of s/d = 0.01 compared.
+
+Prints the tables and the smallest sinkage at which the two differ by more than 3 %.
 """
 from __future__ import annotations
 
@@ -26,19 +62,22 @@ import csv
 import json
 import math
 import pathlib
+import sys
 import time
 
+import numpy as np
 from mpi4py import MPI
 
-from _bench import add_volumetric_strain
+from _bench import add_volumetric_strain, dump_json, run_problems
 
 from rollsim.files import complete_directory
-from rollsim.geometry import CylinderWheel, MeshOptions, build_soil_block, indentation_block
+from rollsim.geometry import CylinderWheel, MeshOptions, build_soil_block, indentation_block, rolling_block
 from rollsim.geometry.mesh import ACCURACY_REFINEMENT
-from rollsim.solver.options import DEFAULT_VOLUMETRIC_STRAIN, LINEAR_SOLVERS
 from rollsim.solver import DruckerPrager, SolverDivergedError, StepControl, VonMises
 from rollsim.solver.checkpoint import staged
 from rollsim.solver.indentation import WheelIndentation
+from rollsim.solver.options import DEFAULT_VOLUMETRIC_STRAIN, LINEAR_SOLVERS
+from rollsim.solver.rolling import WheelRolling
 from rollsim.studies.bearing_capacity import Options, Soil, Wheel, wheel_forces
 
 CASES = pathlib.Path(__file__).parents[1] / "studies" / "data" / "cases_indentation.csv"
@@ -137,8 +176,8 @@ def solve_cost(comm, presets, linear_solvers) -> None:
                       f"solve ({ind.problem.linear_solver}) {t_solve:8.2f} s", flush=True)
 
 
-def main():
-    ap = argparse.ArgumentParser()
+def cases(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m benchmarks indentation cases")
     ap.add_argument("--cases", type=int, nargs="*", default=[2, 5])
     ap.add_argument("--accuracy", nargs="+", default=["fast", "standard"],
                     help="presets (fast, standard, accurate) or elements per d under the wheel")
@@ -164,7 +203,7 @@ def main():
     ap.add_argument("--petsc-option", action="append", default=[], metavar="KEY=VALUE",
                     help="PETSc option for the runs' SNES/KSP, e.g. ksp_rtol=1e-10 (repeatable)")
     ap.add_argument("--out", default=None)
-    args = ap.parse_args()
+    args = ap.parse_args(argv)
     if args.step < 0 or (args.step and args.fixed_steps):
         ap.error("--step: a positive s/d, not together with --fixed-steps")
     if args.hexahedra and any(acc in ACCURACY_REFINEMENT for acc in args.accuracy):
@@ -212,5 +251,259 @@ def main():
         pathlib.Path(args.out).write_text(json.dumps(results, indent=2))
 
 
+D, B, GAMMA, MU = 1.524, 0.4572, 20e3, 0.8
+REPORT = (0.02, 0.05, 0.1)
+
+
+def control(max_wall: float) -> StepControl:
+    return StepControl(dt=0.1, dt_min=1e-4, dt_max=0.25, easy_iterations=15, max_cuts=10,
+                       max_wall_time=max_wall)
+
+
+def frictional_run(comm, phi_deg, c_reg, *, match="plane_strain", alpha=1.0, accuracy="fast", s_end=0.1, max_wall=240.0,
+        relaxation_length=0.0, volumetric_strain=DEFAULT_VOLUMETRIC_STRAIN):
+    phi = math.radians(phi_deg)
+    mat = DruckerPrager.from_mohr_coulomb(40e6, 0.35, c_reg, phi, psi=0.0, matching=match)
+    t0 = time.perf_counter()
+    tm = build_soil_block(comm, indentation_block(D), MeshOptions.from_accuracy(D, accuracy))
+    ind = WheelIndentation(tm, CylinderWheel(D, B, B / 12), mat, gamma=GAMMA, friction=MU, penalty=alpha,
+                           relaxation_length=relaxation_length, volumetric_strain=volumetric_strain)
+    ind.gravity_step()
+    status = "ok"
+    try:
+        ind.push(s_end * D, stops=[r * D for r in STOPS if r < s_end], control=control(max_wall))
+    except SolverDivergedError as err:
+        status = f"stopped at s/d = {ind.sinkage / D:.4f}: {str(err).split(';')[0]}"
+    qv = {f"{r:g}": st.QV for r in REPORT for st in ind.steps if abs(st.sinkage - r * D) < 1e-9}
+    bc = {f"{r:g}": float(wheel_forces(r * D, Wheel(D, B), Soil(0.0, phi, GAMMA), Options(mode="indentation")).QV)
+          for r in REPORT}
+    return {"phi_deg": phi_deg, "c_reg_Pa": c_reg, "relaxation_length_m": relaxation_length, "match": match,
+            "alpha": alpha, "accuracy": accuracy, "volumetric_strain": volumetric_strain,
+            "dofs": ind.n_dofs, "status": status, "s_over_d_reached": ind.sinkage / D, "steps": len(ind.steps),
+            "newton_iterations": ind.newton_iterations, "cuts": ind.cuts,
+            "wall_s": comm.allreduce(time.perf_counter() - t0, op=MPI.MAX), "QV_N": qv, "model_QV_N": bc,
+            "curve": [(st.sinkage / D, st.QV) for st in ind.steps]}
+
+
+def _table(results):
+    head = ("phi", "c_reg kPa", "L mm", "s/d", "FE Q_V kN", "model kN", "FE/model", "steps", "Newton its", "cuts",
+            "wall s", "status")
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for r in results:
+        for i, x in enumerate(REPORT):
+            fe = r["QV_N"].get(f"{x:g}")
+            bc = r["model_QV_N"][f"{x:g}"]
+            first = i == 0
+            lines.append("| " + " | ".join([
+                f"{r['phi_deg']:g}", f"{r['c_reg_Pa'] / 1e3:g}", f"{r['relaxation_length_m'] * 1e3:g}", f"{x:g}",
+                "-" if fe is None else f"{fe / 1e3:.1f}", f"{bc / 1e3:.1f}",
+                "-" if fe is None else f"{fe / bc:.2f}",
+                f"{r['steps']}" if first else "", f"{r['newton_iterations']}" if first else "",
+                f"{r['cuts']}" if first else "", f"{r['wall_s']:.0f}" if first else "",
+                r["status"] if first else ""]) + " |")
+    return "\n".join(lines)
+
+
+def _sensitivity(results):
+    """Q_V relative to the smallest c_reg run at the same phi (rate-independent runs only)."""
+    out = []
+    for phi in sorted({r["phi_deg"] for r in results}):
+        rs = sorted((r for r in results if r["phi_deg"] == phi and r["relaxation_length_m"] == 0),
+                    key=lambda r: r["c_reg_Pa"])
+        if len(rs) < 2:
+            continue
+        ref = rs[0]
+        for r in rs[1:]:
+            for x in REPORT[1:]:
+                a, b = r["QV_N"].get(f"{x:g}"), ref["QV_N"].get(f"{x:g}")
+                if a and b:
+                    out.append(f"phi {phi:g}: Q_V(c_reg = {r['c_reg_Pa'] / 1e3:g} kPa) / Q_V(c_reg = "
+                               f"{ref['c_reg_Pa'] / 1e3:g} kPa) - 1 at s/d = {x:g}: {a / b - 1:+.3f}")
+    return "\n".join(out)
+
+
+def _relaxation_limit(results):
+    """Duvaut-Lions runs at the same phi and c_reg: Q_V against the rate-independent run (L = 0), if
+    there is one, and, from the three smallest lengths, the first-order Richardson extrapolation
+    of the last two and Aitken's of the three (the limit lay between them where it was checked)."""
+    out = []
+    for phi, c_reg in sorted({(r["phi_deg"], r["c_reg_Pa"]) for r in results}):
+        rs = [r for r in results if r["phi_deg"] == phi and r["c_reg_Pa"] == c_reg]
+        ref = next((r for r in rs if r["relaxation_length_m"] == 0), None)
+        relaxed = sorted((r for r in rs if r["relaxation_length_m"] > 0), key=lambda r: -r["relaxation_length_m"])
+        for x in REPORT:
+            key = f"{x:g}"
+            q = [(r["relaxation_length_m"] * 1e3, r["QV_N"][key]) for r in relaxed if key in r["QV_N"]]
+            if not q:
+                continue
+            q0 = ref["QV_N"].get(key) if ref else None
+            line = f"phi {phi:g} c_reg {c_reg / 1e3:g} kPa, s/d = {x:g}: Q_V " + ", ".join(
+                f"{v / 1e3:.1f} kN (L {ell:g} mm{'' if q0 is None else f', {v / q0 - 1:+.1%}'})" for ell, v in q)
+            if q0 is not None:
+                line += f"; rate-independent {q0 / 1e3:.1f} kN"
+            if len(q) >= 3:
+                (_, q1), (_, q2), (_, q3) = q[-3:]
+                line += f"; Richardson {(2 * q3 - q2) / 1e3:.1f} kN"
+                if (q1 - q2) != (q2 - q3):
+                    line += f", Aitken {(q3 - (q2 - q3) ** 2 / ((q1 - q2) - (q2 - q3))) / 1e3:.1f} kN"
+            out.append(line)
+    return "\n".join(out)
+
+
+def frictional(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m benchmarks indentation frictional",
+                                 description=__doc__.split("\n\n")[0])
+    ap.add_argument("--phi", type=float, nargs="+", default=[35.0, 40.0, 45.0], help="friction angles, deg")
+    ap.add_argument("--creg", type=float, nargs="+", default=[1.0], help="regularising cohesion(s), kPa (0 = none)")
+    ap.add_argument("--relaxation-length", type=float, nargs="+", default=[0.0],
+                    help="Duvaut-Lions relaxation length(s), mm of sinkage (0 = rate-independent)")
+    ap.add_argument("--match", default="plane_strain",
+                    choices=["plane_strain", "plane_strain_flow", "compression", "extension"])
+    add_volumetric_strain(ap)
+    ap.add_argument("--alpha", type=float, default=1.0, help="contact penalty factor alpha (kappa = alpha E/h)")
+    ap.add_argument("--accuracy", default="fast")
+    ap.add_argument("--s-end", type=float, default=0.1, help="final s/d")
+    ap.add_argument("--max-wall", type=float, default=240.0, help="wall-clock guard per run, s")
+    ap.add_argument("--out", default=None, help="write the results (with curves) as JSON")
+    args = ap.parse_args(argv)
+    comm = MPI.COMM_WORLD
+    results = []
+    for phi in args.phi:
+        for c in args.creg:
+            for ell in args.relaxation_length:
+                r = frictional_run(comm, phi, c * 1e3, match=args.match, alpha=args.alpha, accuracy=args.accuracy,
+                        s_end=args.s_end, max_wall=args.max_wall, relaxation_length=ell * 1e-3,
+                        volumetric_strain=args.volumetric_strain)
+                results.append(r)
+                if comm.rank == 0:
+                    print(f"phi {phi:g} c_reg {c:g} kPa L {ell:g} mm: {r['status']}, {r['steps']} steps, "
+                          f"{r['newton_iterations']} its, {r['wall_s']:.0f} s", flush=True)
+    if comm.rank == 0:
+        print(_table(results))
+        for extra in (_sensitivity(results), _relaxation_limit(results)):
+            if extra:
+                print(extra)
+        if args.out:
+            with open(args.out, "w") as f:
+                json.dump(results, f, indent=1)
+
+
+KINDS = ("small-strain", "updated-lagrangian")
+
+
+def _material(args):
+    return VonMises(E=args.E * 1e6, nu=0.35, yield_stress=args.yield_stress * 1e3)
+
+
+def indentation(comm, kinematics, args):
+    t0 = time.perf_counter()
+    tm = build_soil_block(comm, indentation_block(D), MeshOptions.from_accuracy(D, args.accuracy))
+    ind = WheelIndentation(tm, CylinderWheel(D, B, B / 12), _material(args), gamma=GAMMA, friction=args.mu,
+                           kinematics=kinematics)
+    ind.gravity_step()
+    stops = np.round(np.arange(0.01, args.s_end + 1e-9, 0.01), 4)
+    status = "ok"
+    try:
+        ind.push(args.s_end * D, stops=[r * D for r in stops])
+    except SolverDivergedError as err:
+        status = f"failed: {err}"
+    qv = {float(r): st.QV for r in stops for st in ind.steps if abs(st.sinkage - r * D) < 1e-9}
+    return {"kinematics": kinematics, "status": status, "dofs": ind.n_dofs, "steps": len(ind.steps),
+            "newton_iterations": ind.newton_iterations, "cuts": ind.cuts, "QV": qv,
+            "time_s": comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)}
+
+
+def rolling(comm, kinematics, args):
+    t0 = time.perf_counter()
+    blk = rolling_block(D, length=args.length, half_width=args.half_width, depth=args.depth, stiff_length=0.0)
+    tm = build_soil_block(comm, blk, MeshOptions.from_accuracy(D, args.accuracy))
+    roll = WheelRolling(tm, CylinderWheel(D, B, B / 12), _material(args), gamma=GAMMA, friction=args.rolling_mu,
+                        kinematics=kinematics)
+    roll.gravity_step()
+    status = "ok"
+    try:
+        roll.press(0.005 * D)
+        roll.roll(args.travel * D, args.rolling_s_end * D)
+    except SolverDivergedError as err:
+        status = f"failed: {err}"
+    rolled = [(st.travel, st.sinkage, st.QV, st.QH) for st in roll.steps if st.travel > 0]
+    return {"kinematics": kinematics, "status": status, "dofs": roll.n_dofs, "steps": len(roll.steps),
+            "newton_iterations": roll.newton_iterations, "cuts": roll.cuts, "curve": rolled,
+            "time_s": comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)}
+
+
+def first_above(s, diff, limit=0.03):
+    """Smallest s where |diff| > limit (None if never)."""
+    over = [si for si, di in zip(s, diff) if abs(di) > limit]
+    return min(over) if over else None
+
+
+def kinematics(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(prog="python -m benchmarks indentation kinematics",
+                                description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--accuracy", default="fast")
+    p.add_argument("--E", type=float, default=40.0, help="Young's modulus, MPa")
+    p.add_argument("--yield-stress", type=float, default=200.0, help="von Mises yield stress, kPa")
+    p.add_argument("--mu", type=float, default=0.8, help="indentation friction")
+    p.add_argument("--s-end", type=float, default=0.15, help="indentation sinkage, d")
+    p.add_argument("--rolling", action="store_true")
+    p.add_argument("--rolling-mu", type=float, default=0.0)
+    p.add_argument("--rolling-s-end", type=float, default=0.08, help="continuous ramp end, d")
+    p.add_argument("--travel", type=float, default=1.2, help="d")
+    p.add_argument("--length", type=float, default=2.2, help="rolling block length, d")
+    p.add_argument("--half-width", type=float, default=0.8)
+    p.add_argument("--depth", type=float, default=0.8)
+    p.add_argument("--skip-indentation", action="store_true")
+    p.add_argument("--out")
+    args = p.parse_args(argv)
+    comm = MPI.COMM_WORLD
+    root = comm.rank == 0
+    out = {"args": vars(args)}
+    if not args.skip_indentation:
+        runs = [indentation(comm, k, args) for k in KINDS]
+        out["indentation"] = runs
+        ss, ul = (r["QV"] for r in runs)
+        s = sorted(set(ss) & set(ul))
+        diff = [ul[r] / ss[r] - 1 for r in s]
+        if root:
+            print("indentation (quarter block, mu = %g):" % args.mu)
+            for r in runs:
+                print(f"  {r['kinematics']:>19}: {r['status']}, {r['dofs']} dofs, {r['steps']} steps, "
+                      f"{r['newton_iterations']} Newton its, {r['cuts']} cuts, {r['time_s']:.0f} s")
+            print("  s/d    Q_V small strain (kN)   Q_V updated Lagrangian (kN)   UL/SS - 1")
+            for r, dr in zip(s, diff):
+                print(f"  {r:5.3f}  {ss[r] / 1e3:21.1f}   {ul[r] / 1e3:27.1f}   {100 * dr:+8.2f} %")
+            print(f"  first s/d with |UL/SS - 1| > 3 %: {first_above(s, diff)}")
+    if args.rolling:
+        runs = [rolling(comm, k, args) for k in KINDS]
+        out["rolling"] = runs
+        a, b = (np.array(r["curve"]) for r in runs)
+        if root:
+            print("continuous rolling (half block, mu = %g):" % args.rolling_mu)
+            for r in runs:
+                print(f"  {r['kinematics']:>19}: {r['status']}, {r['dofs']} dofs, {r['steps']} steps, "
+                      f"{r['newton_iterations']} Newton its, {r['cuts']} cuts, {r['time_s']:.0f} s")
+            if len(a) and len(b):
+                # both ramps are the same function of travel: compare the mean Q_V over bins of
+                # s/d (several steps each, which averages out the element ripple)
+                edges = np.round(np.arange(0.0, args.rolling_s_end + 1e-9, 0.01), 4)
+                print("  s/d bin        Q_V SS (kN)  Q_V UL (kN)  UL/SS - 1   Q_H SS (kN)  Q_H UL (kN)")
+                first = None
+                for lo, hi in zip(edges[:-1], edges[1:]):
+                    ma = (a[:, 1] / D >= lo) & (a[:, 1] / D < hi)
+                    mb = (b[:, 1] / D >= lo) & (b[:, 1] / D < hi)
+                    if ma.sum() < 2 or mb.sum() < 2:
+                        continue
+                    qa, qb = a[ma, 2].mean(), b[mb, 2].mean()
+                    if first is None and abs(qb / qa - 1) > 0.03:
+                        first = lo
+                    print(f"  {lo:.2f}-{hi:.2f}  {qa / 1e3:11.1f}  {qb / 1e3:11.1f}  {100 * (qb / qa - 1):+8.1f} %  "
+                          f"{a[ma, 3].mean() / 1e3:11.2f}  {b[mb, 3].mean() / 1e3:11.2f}")
+                print(f"  first s/d bin with |UL/SS - 1| > 3 %: {first}")
+    dump_json(comm, args.out, out)
+    return 0
+
+
+
 if __name__ == "__main__":
-    main()
+    sys.exit(run_problems({"cases": cases, "frictional": frictional, "kinematics": kinematics}, __doc__))

@@ -11,7 +11,7 @@ of its protocol on the fast preset, for every level, unless ``--volumetric-strai
   s/d = 0.02, 0.05 and 0.08;
 * ``indentation-dp``: report case 5 (Drucker-Prager phi_dp = 27.5 deg, c_dp = 194.6 kPa), same;
 * ``rolling-case5``: towed at 133.5 kN on the case-5 soil, the sinkage of steady rolling (the
-  scene and the measure of ``bench_rolling_convergence.py``);
+  scene and the measure of ``python -m benchmarks rolling convergence``);
 * ``tire-indentation``: the pneumatic tire of ``examples/pneumatic_indentation.toml`` (inflated,
   then pressed into a clay; tire and soil meshed at the level's element size), Q_V at a sinkage
   of 10, 20 and 30 mm.
@@ -102,11 +102,11 @@ def run_scene(comm, scene: str, refinement: float, volumetric_strain: str | None
     elif scene == "tire-indentation":
         res, out = tire_run(comm, refinement, strain)
     else:
-        import bench_rolling_convergence as convergence
-        args = convergence.level_args("case5", refinement, strain)
-        res = convergence.protocols.constant_load(comm, args.mu[0], args)
+        import bench_rolling as rolling
+        args = rolling.level_args("case5", refinement, strain)
+        res = rolling.constant_load(comm, args.mu[0], args)
         res.pop("curve")
-        out = {"value": convergence.sinkage(res), "steady": res.get("steady"),
+        out = {"value": rolling.sinkage(res), "steady": res.get("steady"),
                "linear_solves": res.get("linear_solves", res["newton_iterations"])}
     peak = comm.allreduce(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, op=MPI.SUM) / 1024
     steps = max(res["steps"], 1)

@@ -29,7 +29,7 @@ of the discrete law; non-symmetric with friction, fine for LU).
 Penalty parameters: ``kappa = alpha E / h`` (``h`` the element size at the contact surface, ``E``
 the largest Young modulus of the soil), ``k_T = kappa``; the penetration error is ``p_N / kappa``
 = ``(p_N / E) (h / alpha)``.  The default ``alpha`` (:data:`DEFAULT_PENALTY`) comes from the
-measurement in ``benchmarks/bench_contact_hertz.py`` (see docs/verification.md, "Contact").
+measurement in ``python -m benchmarks contact hertz`` (see docs/verification.md, "Contact").
 
 Forces are reported on the wheel (the negative of the force on the soil), for the modelled part
 of the wheel only (the symmetry factor is applied by the callers).

@@ -280,7 +280,7 @@ def regularised_cohesion(c: float, phi: float, c_reg: float = DEFAULT_REGULARISI
     to the tensile mean stress ``c_reg cot(phi)``), so near-surface points are elastic rather than
     on the apex, whose tangent is zero.  It is a numerical device, not soil data, and it raises
     the wheel force measurably (``options.DEFAULT_REGULARISING_COHESION``): callers must report it, and results should
-    be checked against smaller values (``benchmarks/bench_frictional_wheel.py --creg 1 0.5 0``)."""
+    be checked against smaller values (``python -m benchmarks indentation frictional` --creg 1 0.5 0``)."""
     if not (math.isfinite(c_reg) and c_reg > 0):
         raise ValueError(f"c_reg must be a positive finite number (Pa), got {c_reg!r}")
     if c == 0 and phi > 0:

@@ -87,7 +87,7 @@ AUTO_ITERATIVE_DOFS = 100_000
 #: GMRES (the tangent is unsymmetric with friction or non-associated flow) preconditioned by
 #: smoothed-aggregation AMG (GAMG) with the rigid-body modes as near-null space (attached by
 #: :class:`PlasticityProblem`).  Inexact Newton: a relative tolerance of 1e-6 gives the forces of
-#: 1e-10 in less time (``bench_indentation.py --linear-solver iterative --petsc-option
+#: 1e-10 in less time (``python -m benchmarks indentation cases --linear-solver iterative --petsc-option
 #: ksp_rtol=...``; measured: see docs/benchmarks.md, "Presets"); the Newton tolerance
 #: (``snes_rtol``), not this one, sets the accuracy.
 ITERATIVE_SOLVER_OPTIONS = {

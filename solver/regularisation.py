@@ -52,7 +52,7 @@ RELAXATION_INDENTATION = ((1 / 512, 15.0), (1 / 256, 25.0), (1 / 128, 29.0), (1 
                           (1 / 16, 96.0), (1 / 8, 145.0), (1 / 4, 218.0), (1.0, 520.0))
 
 #: fallback relaxation (default 0.01 mm over 0.005 d of sinkage after a failure), measured on the
-#: plane-strain extremes matrix (benchmarks/bench_extremes.py, fast preset), its length halved:
+#: plane-strain extremes matrix (`python -m benchmarks extremes matrix`, fast preset), its length halved:
 #: the change of Q_V at s/d = 0.1 on the cells it relaxed, bar one stiff, nearly incompressible
 #: steep cone (measured: see docs/benchmarks.md, "Extremes matrix")
 FALLBACK_BIAS = (-15.0, 15.0)

@@ -275,7 +275,7 @@ class WheelRolling:
     #: the pose solve's attempts before a step is cut, by the ``hold_rtol`` of each (see
     #: :meth:`_solve_pose`).  A second attempt with the pose held until the soil has converged
     #: (``(0.1, 0.0)``) rarely rescues a failed solve and costs Newton iterations
-    #: (``benchmarks/bench_pose_retry.py``; measured: see docs/benchmarks.md, "Rolling cost"):
+    #: (``python -m benchmarks rolling retry``; measured: see docs/benchmarks.md, "Rolling cost"):
     #: cutting at once is cheaper.
     POSE_HOLDS: tuple[float, ...] = (_PoseBorder.HOLD_RTOL,)
 

@@ -19,9 +19,9 @@ BENCHMARKS = pathlib.Path(__file__).parents[1] / "benchmarks"
 @pytest.fixture()
 def benchmarks(monkeypatch):
     monkeypatch.syspath_prepend(str(BENCHMARKS))
-    import bench_block_size
-    import bench_rolling_convergence
-    return bench_rolling_convergence, bench_block_size
+    import bench_mesh
+    import bench_rolling
+    return bench_rolling, bench_mesh
 
 
 def _level(refinement, sinkage, **extra):
@@ -39,9 +39,9 @@ def _solved_level(convergence, monkeypatch, argv: list[str], *fields: str) -> tu
         solved.append(tuple(getattr(level, f) for f in fields))
         raise RuntimeError("stop")
 
-    monkeypatch.setattr(convergence.protocols, "constant_load", record)
+    monkeypatch.setattr(convergence, "constant_load", record)
     with pytest.raises(RuntimeError, match="stop"):
-        convergence.main(["--soil", "case5", "--refinement", "6", "--volumetric-strain", "cell-average"] + argv)
+        convergence.levels(["--soil", "case5", "--refinement", "6", "--volumetric-strain", "cell-average"] + argv)
     (level,) = solved
     return level
 
@@ -56,8 +56,8 @@ def test_rolling_convergence_resumes_and_keeps_regularised_runs_apart(benchmarks
     def must_not_solve(*args, **kwargs):
         raise AssertionError("a saved level was solved again")
 
-    monkeypatch.setattr(convergence.protocols, "constant_load", must_not_solve)
-    assert convergence.main(["--soil", "case5", "--refinement", "6", "--volumetric-strain", "cell-average",
+    monkeypatch.setattr(convergence, "constant_load", must_not_solve)
+    assert convergence.levels(["--soil", "case5", "--refinement", "6", "--volumetric-strain", "cell-average",
                              "--relaxation-length", "0.5", "--out", str(out)]) == 0
     text = capsys.readouterr().out
     assert "not solved again" in text
@@ -82,9 +82,9 @@ def test_rolling_convergence_keeps_hexahedra_apart_from_the_cell_count(benchmark
     def must_not_solve(*args, **kwargs):
         raise AssertionError("a saved level was solved again")
 
-    monkeypatch.setattr(convergence.protocols, "constant_load", must_not_solve)
+    monkeypatch.setattr(convergence, "constant_load", must_not_solve)
     for extra in ([], ["--hexahedra"]):
-        assert convergence.main(["--soil", "case5", "--refinement", "6", "--volumetric-strain", "cell-average",
+        assert convergence.levels(["--soil", "case5", "--refinement", "6", "--volumetric-strain", "cell-average",
                                  "--out", str(out)] + extra) == 0
     text = capsys.readouterr().out
     assert text.count("not solved again") == 2
@@ -103,7 +103,7 @@ def test_rolling_convergence_keeps_hexahedra_apart_from_the_cell_count(benchmark
     assert convergence.formulation(thinner) == "cell-average, Q2-P1 hexahedra, 2x finer in depth"
     for knob in ("--path-refinement", "--cross-refinement", "--depth-refinement"):
         with pytest.raises(SystemExit) as exit_info:
-            convergence.main(["--soil", "case5", "--refinement", "6", knob, "2", "--out", str(out)])
+            convergence.levels(["--soil", "case5", "--refinement", "6", knob, "2", "--out", str(out)])
         assert exit_info.value.code == 2
 
 
@@ -119,15 +119,15 @@ def test_rolling_convergence_keeps_a_fixed_travel_step_apart(benchmarks, tmp_pat
     fixed = _level(6.0, 0.017, travel_step_mm=25.0)
     assert convergence.formulation(fixed) == "cell-average, 25 mm steps"
     out.write_text(json.dumps({"results": [_level(6.0, 0.018), fixed]}))
-    monkeypatch.setattr(convergence.protocols, "constant_load",
+    monkeypatch.setattr(convergence, "constant_load",
                         lambda *a: pytest.fail("a saved level was solved again"))
-    assert convergence.main(["--soil", "case5", "--refinement", "6", "--volumetric-strain", "cell-average",
+    assert convergence.levels(["--soil", "case5", "--refinement", "6", "--volumetric-strain", "cell-average",
                              "--travel-step", "25", "--out", str(out)]) == 0
     text = capsys.readouterr().out
     assert "not solved again" in text and "| case5 | cell-average, 25 mm steps | 6 |" in text
-    control = convergence.protocols.travel_control(2.0, 25.0)
+    control = convergence.travel_control(2.0, 25.0)
     assert (control.t_end, control.dt, control.dt_max) == (2.0, 0.025, 0.025)
-    assert convergence.protocols.travel_control(2.0, 0.0) is None
+    assert convergence.travel_control(2.0, 0.0) is None
 
 
 @pytest.mark.serial
@@ -148,9 +148,9 @@ def test_rolling_convergence_keeps_the_sinkage_along_the_travel(benchmarks, tmp_
     def solved(comm, mu, args):
         return {**level, "status": "ok", "curve": [(0.1, 0.011, 1e5, 2e3), (0.2, 0.0125, 1e5, 2e3)]}
 
-    monkeypatch.setattr(convergence.protocols, "constant_load", solved)
+    monkeypatch.setattr(convergence, "constant_load", solved)
     out = tmp_path / "levels.json"
-    assert convergence.main(["--soil", "case5", "--refinement", "6", "--volumetric-strain", "cell-average",
+    assert convergence.levels(["--soil", "case5", "--refinement", "6", "--volumetric-strain", "cell-average",
                              "--out", str(out)]) == 0
     (saved,) = json.loads(out.read_text())["results"]
     assert saved["travel_sinkage"] == [[0.1, 0.011], [0.2, 0.0125]] and "curve" not in saved
@@ -188,14 +188,14 @@ def test_rolling_convergence_runs_the_scene_fallbacks_apart(benchmarks, tmp_path
     passed = []
 
     def solved(comm, mu, args):
-        passed.append(convergence.protocols.regularisation(args))
+        passed.append(convergence.regularisation(args))
         solution = {k: v for k, v in _level(6.0, 0.012).items() if k not in ("soil", "strain", "refinement")}
         return {**solution, "status": "ok", "curve": [(0.1, 0.011, 1e5, 2e3)]}
 
-    monkeypatch.setattr(convergence.protocols, "constant_load", solved)
+    monkeypatch.setattr(convergence, "constant_load", solved)
     out = tmp_path / "levels.json"
     for extra in ([], ["--fallbacks"]):
-        assert convergence.main(["--soil", "sand", "--refinement", "6", "--volumetric-strain", "pointwise",
+        assert convergence.levels(["--soil", "sand", "--refinement", "6", "--volumetric-strain", "pointwise",
                                  "--out", str(out)] + extra) == 0
     assert passed[0] == {"relaxation_length": 0.0}
     assert passed[1]["travel_relaxation_fallback"] > 0 and passed[1]["relaxation_fallback"] > 0
@@ -223,10 +223,10 @@ def test_rolling_convergence_table_names_failed_heaving_and_relaxed_levels(bench
     saved = tmp_path / "levels.json"
     saved.write_text(json.dumps({"results": [failed, heaving]}))
     figure = tmp_path / "travel.png"
-    assert convergence.main(["--table", str(saved), "--figure", str(figure)]) == 0
+    assert convergence.levels(["--table", str(saved), "--figure", str(figure)]) == 0
     assert figure.stat().st_size > 0
     saved.write_text(json.dumps({"results": [_level(6.0, 0.01)]}))
-    assert convergence.main(["--table", str(saved), "--figure", str(tmp_path / "none.png")]) == 0
+    assert convergence.levels(["--table", str(saved), "--figure", str(tmp_path / "none.png")]) == 0
     assert "not drawn" in capsys.readouterr().out and not (tmp_path / "none.png").exists()
 
 
@@ -238,13 +238,13 @@ def test_block_size_table_and_bad_block(benchmarks, tmp_path, capsys):
              "value": s, "std": 5e-4} for w, dofs, s in ((0.8, 12822, 0.015), (2.2, 17784, 0.016))]
     results = tmp_path / "block_size.json"
     results.write_text(json.dumps({"runs": runs}))
-    assert block_size.main(["--table", "--results", str(results)]) == 0
+    assert block_size.block_size(["--table", "--results", str(results)]) == 0
     rows = [line for line in capsys.readouterr().out.splitlines() if line.startswith("| rolling-case5")]
     assert "-6.2 %" in rows[0] and rows[1].count("|") == 9 and "%" not in rows[1]
     with pytest.raises(ValueError, match="--block"):
         block_size.parse_block("rolling-case5", "2.6:0.8:0.8")
     with pytest.raises(SystemExit) as exit_status:
-        block_size.main(["--block", "2.6:0.8", "--results", str(results)])
+        block_size.block_size(["--block", "2.6:0.8", "--results", str(results)])
     assert exit_status.value.code == 2
 
 
@@ -254,7 +254,7 @@ def test_rolling_convergence_compares_the_levels_over_later_windows(benchmarks):
     travel under the table (the press at x = 0 and the lift-off's repeated x are not rolled steps);
     a group with a level too short for a window gets none."""
     convergence, _ = benchmarks
-    d = convergence.protocols.D
+    d = convergence.D
     x = (0.3 + 0.25 * np.arange(14)) * d                 # rolled steps every 0.25 d from 0.3 d
 
     def level(n, early, late):                           # 'early' mm up to 2 d of travel, 'late' after
@@ -277,7 +277,7 @@ def test_rolling_convergence_compares_the_levels_over_later_windows(benchmarks):
 def test_pose_retry_runs_both_variants_once_and_restores_the_default(benchmarks, tmp_path, monkeypatch, capsys):
     """Each variant solves with its own ``POSE_HOLDS``, a resumed file solves nothing again, and the
     default is back afterwards (a failed solve included)."""
-    import bench_pose_retry
+    import bench_rolling as bench_pose_retry
     from rollsim.solver.rolling import WheelRolling
     default = WheelRolling.POSE_HOLDS
     seen = []
@@ -288,11 +288,11 @@ def test_pose_retry_runs_both_variants_once_and_restores_the_default(benchmarks,
         return {**_level(6.0, 0.019 + 1e-4 * len(seen)), "newton_iterations": its, "time_s": its / 10,
                 "status": "ok", "curve": [(0.0, 0.01, 0.0, 0.0)]}
 
-    monkeypatch.setattr(bench_pose_retry.protocols, "constant_load", fake)
+    monkeypatch.setattr(bench_pose_retry, "constant_load", fake)
     out = tmp_path / "retry.json"
-    assert bench_pose_retry.main(["--soil", "case5", "--out", str(out)]) == 0
+    assert bench_pose_retry.pose_retry(["--soil", "case5", "--out", str(out)]) == 0
     assert seen == [(0.1, 0.0), default] and WheelRolling.POSE_HOLDS == default
-    assert bench_pose_retry.main(["--soil", "case5", "--out", str(out)]) == 0
+    assert bench_pose_retry.pose_retry(["--soil", "case5", "--out", str(out)]) == 0
     assert len(seen) == 2                                                  # resumed: nothing solved again
     text = capsys.readouterr().out
     assert "1.50x fewer Newton iterations, 1.50x less wall time, mean sinkage +0.5 %" in text
@@ -300,9 +300,9 @@ def test_pose_retry_runs_both_variants_once_and_restores_the_default(benchmarks,
     def failing(comm, mu, level):
         raise RuntimeError("solver crashed")
 
-    monkeypatch.setattr(bench_pose_retry.protocols, "constant_load", failing)
+    monkeypatch.setattr(bench_pose_retry, "constant_load", failing)
     with pytest.raises(RuntimeError):
-        bench_pose_retry.main(["--soil", "clay", "--out", str(tmp_path / "other.json")])
+        bench_pose_retry.pose_retry(["--soil", "clay", "--out", str(tmp_path / "other.json")])
     assert WheelRolling.POSE_HOLDS == default
 
 
@@ -311,7 +311,7 @@ def test_rolling_cells_runs_each_mesh_variant_once(monkeypatch, tmp_path, capsys
     """bench_rolling_cells: a variant's scene carries its mesh keys over the example's, the mean
     sinkage counts only full-load steps from 1 d of travel on, and a saved variant is not run again."""
     monkeypatch.syspath_prepend(str(BENCHMARKS))
-    import bench_rolling_cells as cells
+    import bench_rolling as cells
     scene = cells.variant_scene(cells.SCENE, "hexahedra, 6 per d, 8 across, B-bar")
     assert (scene.model.cell_type, scene.model.elements_across_wheel, scene.model.refinement) == ("hexahedra", 8, 6)
     assert scene.model.volumetric_strain == "cell-average" and scene.model.accuracy == "standard"
@@ -332,9 +332,9 @@ def test_rolling_cells_runs_each_mesh_variant_once(monkeypatch, tmp_path, capsys
 
     monkeypatch.setattr(cells, "run_variant", run_variant)
     out = tmp_path / "cells.json"
-    first, second = list(cells.VARIANTS)[:2]
-    assert cells.main(["--variant", first, "--out", str(out)]) == 0
-    assert cells.main(["--variant", first, second, "--out", str(out)]) == 0
+    first, second = list(cells.CELL_VARIANTS)[:2]
+    assert cells.cells(["--variant", first, "--out", str(out)]) == 0
+    assert cells.cells(["--variant", first, second, "--out", str(out)]) == 0
     assert ran == [first, second]
     text = capsys.readouterr().out
     assert f"| {second} | pointwise | 10 | 100 | 5 | 20 | 0 | 20.00 ± 1.00 mm | not detected | 300 s (1) | 1.50 |" in text
@@ -345,7 +345,7 @@ def test_rolling_cells_compares_stopped_runs_over_a_common_travel(monkeypatch, t
     """bench_rolling_cells --progress: each run directory under --work, stopped or finished, is
     read up to the same travel; the sinkage is averaged over the window at the load only."""
     monkeypatch.syspath_prepend(str(BENCHMARKS))
-    import bench_rolling_cells as cells
+    import bench_rolling as cells
     header = "step,sinkage_m,QV_N,travel_m,newton_iterations,wall_time_s\n"
     runs = {"tetrahedra_fast": "1,0.010,133500,0.5,4,10\n2,0.020,133500,1.0,6,30\n3,0.030,133500,1.5,8,60\n"
                                "4,0.010,50000,2.0,2,70\n",
@@ -353,12 +353,12 @@ def test_rolling_cells_compares_stopped_runs_over_a_common_travel(monkeypatch, t
     for name, rows in runs.items():
         (tmp_path / name).mkdir()
         (tmp_path / name / "history.csv").write_text(header + rows)
-    assert cells.main(["--work", str(tmp_path), "--progress", "1.0", "0.9", "1.3"]) == 0
+    assert cells.cells(["--work", str(tmp_path), "--progress", "1.0", "0.9", "1.3"]) == 0
     text = capsys.readouterr().out
     assert "| tetrahedra, fast | 2.00 m | 2 | 10 | 30 s | 1.00 | 20.00 mm |" in text
     assert "| standard | 1.20 m | 2 | 22 | 100 s | 3.33 | 24.00 mm |" in text
     with pytest.raises(SystemExit):
-        cells.main(["--progress", "1.0", "0.9", "1.3"])
+        cells.cells(["--progress", "1.0", "0.9", "1.3"])
 
 
 def _held_run(path, strain: str, across: float, s_hold: float, q: float, depth: float = 1.0,
@@ -381,12 +381,12 @@ def test_held_sinkage_table_compares_like_with_like(benchmarks, tmp_path, capsys
     """The held-sinkage table sorts the runs by strain and mesh and gives each the change of Q_V
     against the mesh of the same strain and elements per d that is twice as coarse along one axis,
     and a run at a set travel step the change against the same mesh at the default step."""
-    protocols = benchmarks[0].protocols
+    protocols = benchmarks[0]
     paths = [_held_run(tmp_path / f"run{k}.json", *run, load=105.0) for k, run in enumerate((
         ("pointwise", 4.0, 0.03, 110e3), ("pointwise", 2.0, 0.03, 100e3), ("cell-average", 2.0, 0.03, 90e3),
         ("pointwise", 2.0, 0.03, 99e3, 2.0), ("pointwise", 8.0, 0.03, 121e3), ("pointwise", 2.0, 0.02, 80e3),
         ("pointwise", 4.0, 0.02, 88e3), ("pointwise", 4.0, 0.01, 50e3), ("pointwise", 2.0, 0.03, 104e3, 2.0, 25.4)))]
-    assert protocols.main(["--table"] + [str(p) for p in paths]) == 0
+    assert protocols.roll(["--table"] + [str(p) for p in paths]) == 0
     tables = capsys.readouterr().out.split("\n\n")
     rows = [line for line in tables[0].splitlines() if line.startswith("| ") and "30.00 mm" in line]
     assert [r.split(" | ")[2] for r in rows] == ["2x across the path"] * 2 + [
@@ -412,14 +412,14 @@ def test_held_table_keeps_scenes_apart_and_compares_the_strains(benchmarks, tmp_
     """Runs of other soils, friction or travel are never compared with each other: each scene gets
     its own changes, and a column names the arguments that tell the scenes apart (not those only
     the constant-load run reads); each pointwise run is compared with B-bar on its scene's mesh."""
-    protocols = benchmarks[0].protocols
+    protocols = benchmarks[0]
     runs = (("cell-average", 4.0, 100e3, 0.0, 300.0), ("cell-average", 8.0, 99e3, 0.0, 300.0),
             ("pointwise", 4.0, 110e3, 0.0, 300.0), ("pointwise", 8.0, 99e3, 0.0, 300.0),
             ("cell-average", 4.0, 120e3, 0.8, 300.0), ("pointwise", 4.0, 150e3, 0.8, 300.0),
             ("pointwise", 8.0, 140e3, 0.8, 300.0), ("cell-average", 4.0, 160e3, 0.8, 194.6))
     paths = [_held_run(tmp_path / f"run{k}.json", strain, across, 0.03, q, load=133.5, mu=mu, yield_stress=qy,
                        cl_travel=1.0 + k, ramp=0.5) for k, (strain, across, q, mu, qy) in enumerate(runs)]
-    assert protocols.main(["--table"] + [str(p) for p in paths]) == 0
+    assert protocols.roll(["--table"] + [str(p) for p in paths]) == 0
     held = capsys.readouterr().out.split("\n\n")[0].splitlines()
     assert held[0].startswith("| scene | strain |") and "| against cell-average |" in held[0]
     rows = {tuple(r.split(" | ")[i] for i in (0, 1, 3, 4)): r for r in held[2:]}
@@ -433,7 +433,7 @@ def test_held_table_keeps_scenes_apart_and_compares_the_strains(benchmarks, tmp_
     assert "| -6.7 % | 4x across the path |  |" in rows[(clay, "pointwise", "8x across the path", friction)]
     assert "|  |  |  |" in rows[("| --yield-stress 194.6", "cell-average", "4x across the path", friction)]
     with pytest.raises(SystemExit) as stop:          # a file that is not there: one line, status 2
-        protocols.main(["--table", str(paths[0]), str(tmp_path / "none.json")])
+        protocols.roll(["--table", str(paths[0]), str(tmp_path / "none.json")])
     assert stop.value.code == 2 and "--table: no such file:" in capsys.readouterr().err
 
 
@@ -442,13 +442,13 @@ def test_held_table_names_the_cell_mean_apart_from_b_bar(benchmarks, tmp_path, c
     """A B-bar run with the cell mean (``--volumetric-projection 0``) is a strain of its own: its
     changes are against its own coarser run and it is compared with B-bar's default projection on
     its mesh; the option is refused without hexahedra and B-bar (one line, status 2)."""
-    protocols = benchmarks[0].protocols
+    protocols = benchmarks[0]
     runs = (("cell-average", 4.0, 100e3, {}), ("cell-average", 8.0, 96e3, {}),
             ("cell-average", 4.0, 90e3, {"volumetric_projection": 0}),
             ("cell-average", 8.0, 93.6e3, {"volumetric_projection": 0}))
     paths = [_held_run(tmp_path / f"run{k}.json", strain, across, 0.03, q, load=100.0, **extra)
              for k, (strain, across, q, extra) in enumerate(runs)]
-    assert protocols.main(["--table"] + [str(p) for p in paths]) == 0
+    assert protocols.roll(["--table"] + [str(p) for p in paths]) == 0
     held = capsys.readouterr().out.split("\n\n")[0].splitlines()
     assert not held[0].startswith("| scene")            # one scene: the projection is the strain's
     rows = {tuple(r.split(" | ")[i] for i in (0, 2)): r for r in held[2:]}
@@ -458,7 +458,7 @@ def test_held_table_names_the_cell_mean_apart_from_b_bar(benchmarks, tmp_path, c
     for refused in (["--volumetric-projection", "0"],
                     ["--hexahedra", "--volumetric-strain", "pointwise", "--volumetric-projection", "1"]):
         with pytest.raises(SystemExit) as stop:
-            protocols.main(refused + ["--out", str(tmp_path / "refused.json")])
+            protocols.roll(refused + ["--out", str(tmp_path / "refused.json")])
         assert stop.value.code == 2 and "--volumetric-projection:" in capsys.readouterr().err
     assert not (tmp_path / "refused.json").exists()
 
@@ -467,11 +467,11 @@ def test_held_table_names_the_cell_mean_apart_from_b_bar(benchmarks, tmp_path, c
 def test_held_run_at_a_set_step_falls_back_to_the_default_step(benchmarks, tmp_path, capsys):
     """A run at a set travel step whose mesh was run neither at the default step nor coarser at the
     same step is compared with the coarser mesh at the default step, in both tables."""
-    protocols = benchmarks[0].protocols
+    protocols = benchmarks[0]
     paths = [_held_run(tmp_path / f"run{k}.json", "cell-average", 2.0, s_hold, q, *refined, load=100.0)
              for k, (s_hold, q, *refined) in enumerate(((0.02, 90e3), (0.03, 110e3), (0.02, 99e3, 2.0, 25.4),
                                                        (0.03, 121e3, 2.0, 25.4), (0.03, 120e3, 2.0)))]
-    assert protocols.main(["--table"] + [str(p) for p in paths]) == 0
+    assert protocols.roll(["--table"] + [str(p) for p in paths]) == 0
     held, at_load = capsys.readouterr().out.split("\n\n")
     stepped = [line for line in held.splitlines() if "25.4 mm steps" in line]
     assert "| 20.00 mm |" in stepped[0] and "| +10.0 % | 2x across the path |" in stepped[0]
@@ -486,12 +486,12 @@ def test_held_run_on_a_shallower_strip_is_compared_with_the_full_strip(benchmark
     """A strip refined to another depth is named so, kept apart from the full-depth strip of the
     same refinements, and compared with a coarser mesh of its own depth where one was run, else of
     the full depth."""
-    protocols = benchmarks[0].protocols
+    protocols = benchmarks[0]
     runs = ((0.03, 100e3, 2.0, 25.4, 0.4), (0.03, 96e3, 4.0, 25.4, 0.2), (0.03, 90e3, 4.0, 25.4, 0.4),
             (0.02, 80e3, 2.0, 25.4, 0.4), (0.02, 85e3, 2.0, 25.4, 0.2), (0.02, 84e3, 4.0, 25.4, 0.2))
     paths = [_held_run(tmp_path / f"run{k}.json", "cell-average", 4.0, s_hold, q, depth, step, load=95.0,
                        refined_depth=strip) for k, (s_hold, q, depth, step, strip) in enumerate(runs)]
-    assert protocols.main(["--table"] + [str(p) for p in paths]) == 0
+    assert protocols.roll(["--table"] + [str(p) for p in paths]) == 0
     held, at_load = capsys.readouterr().out.split("\n\n")
     shallow = "4x across the path, 4x in depth to 0.2 d deep, 25.4 mm steps"
     rows = {(r.split(" | ")[2], r.split(" | ")[4]): r for r in held.splitlines() if r.startswith("| cell-average")}
@@ -507,11 +507,11 @@ def test_sinkage_at_load_skips_repeats_and_flat_curves(benchmarks, tmp_path, cap
     """A mesh held twice at one sinkage has a single point (no row); a mesh whose force falls with
     sinkage, or whose power law meets the load far below its held points, gets a row that says so
     instead of a sinkage."""
-    protocols = benchmarks[0].protocols
+    protocols = benchmarks[0]
     paths = [_held_run(tmp_path / f"run{k}.json", "cell-average", across, s_hold, q, load=100.0)
              for k, (across, s_hold, q) in enumerate(((2.0, 0.03, 90e3), (2.0, 0.03, 91e3), (4.0, 0.02, 95e3),
                                                       (4.0, 0.03, 94e3), (8.0, 0.02, 108e3), (8.0, 0.04, 125e3)))]
-    assert protocols.main(["--table"] + [str(p) for p in paths]) == 0
+    assert protocols.roll(["--table"] + [str(p) for p in paths]) == 0
     tables = capsys.readouterr().out.split("\n\n")
     assert len(tables) == 2
     at_load = [line for line in tables[1].splitlines() if line.startswith("| cell-average")]
@@ -526,7 +526,7 @@ def test_held_trend_is_the_slope_over_the_held_steps(benchmarks, tmp_path, capsy
     of holding, per diameter of travel and relative to their mean, and its Q_V is averaged per
     0.2 d of held travel; the ramp and the first half diameter of holding do not count, and a run
     without its curve gets no row."""
-    protocols = benchmarks[0].protocols
+    protocols = benchmarks[0]
     d = protocols.D
     x = np.linspace(0.0, 1.2 * d, 49)
     q = np.where(x < 1.0 * d, 50e3 * x / d, 100e3 * (1.0 + 0.1 * (x / d - 1.1)))   # +10 % per d when held
@@ -536,7 +536,7 @@ def test_held_trend_is_the_slope_over_the_held_steps(benchmarks, tmp_path, capsy
     saved["results"][0]["hold"]["curve"] = [(xi, 0.03, qi, 0.0) for xi, qi in zip(x, q)]
     paths[0].write_text(json.dumps(saved))
     assert protocols.hold_trend(*protocols.held_curve(saved["args"], saved["results"][0]["hold"])) == pytest.approx(0.1)
-    assert protocols.main(["--table"] + [str(p) for p in paths]) == 0
+    assert protocols.roll(["--table"] + [str(p) for p in paths]) == 0
     trend = capsys.readouterr().out.split("\n\n")[-1]
     rows = [line for line in trend.splitlines() if line.startswith("| cell-average")]
     assert rows == ["| cell-average | 2x across the path | 30.00 mm | +10.0 % | 1.0-1.2 d | 100.0 kN |"]
@@ -550,7 +550,7 @@ def test_held_trend_is_the_slope_over_the_held_steps(benchmarks, tmp_path, capsy
 def test_held_run_reads_the_load_only_near_its_ramp(benchmarks):
     """The sinkage carrying the load, read off a held run's ramp slope, is given only where the
     slope grows and the line stays within the width of the ramp's sinkages of the held one."""
-    at_load = benchmarks[0].protocols._sinkage_at_load
+    at_load = benchmarks[0]._sinkage_at_load
     ramp = np.array([0.015, 0.02, 0.025, 0.03])
     assert at_load(ramp, 2e6, 0.03, 95e3, 100e3) == pytest.approx(0.0325)
     assert at_load(ramp, 2e6, 0.03, 105e3, 100e3) == pytest.approx(0.0275)
@@ -562,7 +562,7 @@ def test_held_run_reads_the_load_only_near_its_ramp(benchmarks):
 @pytest.mark.parametrize("progress", [True, False])
 def test_held_run_logs_a_line_per_step_with_progress(benchmarks, monkeypatch, caplog, progress):
     """``--progress`` logs a line per rolled step of the continuous and held runs; without it they are quiet."""
-    protocols = benchmarks[0].protocols
+    protocols = benchmarks[0]
 
     class Rolling:
         steps, newton_iterations, cuts, n_dofs, position, x_start = [], 0, 0, 10, 0.0, 0.0
@@ -594,12 +594,12 @@ def test_held_run_continues_from_its_checkpoint(benchmarks, tmp_mpi_path, monkey
     and killed again after its sixth, then started once more with the same arguments gives the
     uninterrupted run's curve and Newton iterations; other arguments are refused (exit 2) before
     anything is solved."""
-    protocols = benchmarks[0].protocols
+    protocols = benchmarks[0]
     argv = ["--mu", "0", "--hexahedra", "--refinement", "3", "--skip-constant-load", "--skip-continuous",
             "--hold-sinkage", "20", "--s0", "0.005", "--ramp", "0.08", "--travel", "0.2", "--cont-length", "1.2",
             "--roll-step", "50"]
     whole, resumed = tmp_mpi_path / "whole.json", tmp_mpi_path / "resumed.json"
-    assert protocols.main(argv + ["--out", str(whole)]) == 0
+    assert protocols.roll(argv + ["--out", str(whole)]) == 0
     ckpt = ["--checkpoint", str(tmp_mpi_path / "ckpt"), "--checkpoint-every", "2"]
     update = protocols.TravelProgress.update
 
@@ -614,12 +614,12 @@ def test_held_run_continues_from_its_checkpoint(benchmarks, tmp_mpi_path, monkey
     monkeypatch.setattr(protocols.TravelProgress, "update", killed_after_three_and_six)
     for _ in range(2):          # the second run continues from the first's checkpoint and writes its own
         with pytest.raises(KeyboardInterrupt):
-            protocols.main(argv + ckpt + ["--out", str(resumed)])
+            protocols.roll(argv + ckpt + ["--out", str(resumed)])
     monkeypatch.setattr(protocols.TravelProgress, "update", update)
     with pytest.raises(SystemExit) as exit_info:
-        protocols.main(argv[:-1] + ["40"] + ckpt + ["--out", str(resumed)])
+        protocols.roll(argv[:-1] + ["40"] + ckpt + ["--out", str(resumed)])
     assert exit_info.value.code == 2 and not resumed.exists()
-    assert protocols.main(argv + ckpt + ["--out", str(resumed)]) == 0
+    assert protocols.roll(argv + ckpt + ["--out", str(resumed)]) == 0
     protocols.MPI.COMM_WORLD.barrier()           # rank 0 writes the results
     a, b = ([r["hold"] for r in json.loads(p.read_text())["results"]][0] for p in (whole, resumed))
     assert a["steps"] == b["steps"] and a["newton_iterations"] == b["newton_iterations"]
@@ -629,7 +629,7 @@ def test_held_run_continues_from_its_checkpoint(benchmarks, tmp_mpi_path, monkey
 def test_held_run_resumes_a_checkpoint_written_before_an_argument_existed(benchmarks, tmp_path, capsys):
     """A checkpoint whose ``args.json`` lacks an argument added since (here ``--predictor``) is
     continued when that argument is at its default, and refused (exit 2, naming it) otherwise."""
-    protocols = benchmarks[0].protocols
+    protocols = benchmarks[0]
     ckpt = tmp_path / "ckpt"
     ckpt.mkdir()
     args = protocols.parser().parse_args(["--hold-sinkage", "20"])

@@ -1,7 +1,7 @@
 """Rigid-wheel contact (solver/contact.py): exact surfaces, Hertz, penalty accuracy, Coulomb friction.
 
 Plane-strain checks on a symmetric half block (cheap); the 3D checks are in test_indentation.py.
-Full-resolution variants and the penalty sweep: benchmarks/bench_contact_hertz.py.
+Full-resolution variants and the penalty sweep: `python -m benchmarks contact hertz`.
 """
 from __future__ import annotations
 

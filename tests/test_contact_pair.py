@@ -4,7 +4,7 @@ combined modulus, mesh convergence of the pressure, the contact patch test.
 Plane strain: an elastic cylinder (R = 0.5 m, E = 20 MPa) pressed on an elastic block
 (E = 10 MPa), both nu = 0.3, quarter model.  3D: a sphere of the same radius and materials on
 a block, and a block on a block (quarter models).  The sweep over penalty factors and element
-sizes, with either surface as the slave: benchmarks/bench_contact_pair.py.
+sizes, with either surface as the slave: `python -m benchmarks contact pair`.
 """
 from __future__ import annotations
 

@@ -110,6 +110,16 @@ def test_benchmark_commands_name_a_benchmark():
     assert wrong.returncode == 2 and "no_such_benchmark" in wrong.stderr
 
 
+def test_cited_benchmark_results_exist():
+    """Every ``benchmarks/results/...`` file a docs page cites (a table's source; a glob or a
+    prefix of a family of files counts when something matches) is in the repository."""
+    cited = {m.group(0).rstrip("/.") for page in PAGES
+             for m in re.finditer(r"benchmarks/results/[\w./*-]+", page.read_text())}
+    assert len(cited) > 20
+    missing = sorted(c for c in cited if not list(ROOT.glob(c + "*")))
+    assert not missing, missing
+
+
 _POINTER = re.compile(r'docs/([\w.-]+\.md)(?:,\s*"([^"\n]+)")?')
 
 

@@ -1,4 +1,4 @@
-"""The extremes matrix's fast subset (``benchmarks/bench_extremes.py``): plain indentation scenes on
+"""The extremes matrix's fast subset (``python -m benchmarks extremes matrix``): plain indentation scenes on
 the plane-strain wheel end as documented with default settings - at s/d = 0.1, or
 ``exceeds_capacity`` for a load above the capacity - within a wall-time guard."""
 from __future__ import annotations

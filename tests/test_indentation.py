@@ -1,7 +1,7 @@
 """Rigid wheel indentation (solver/indentation.py): 3D quarter model, layers, load control, MPI.
 
 Fast variants (coarse "fast" preset); the standard-vs-accurate comparison and the full curves to
-s/d = 0.1 are in benchmarks/bench_indentation.py.
+s/d = 0.1 are in `python -m benchmarks indentation cases`.
 """
 from __future__ import annotations
 
@@ -81,7 +81,7 @@ def test_indentation_report_case_vs_bearing_capacity(comm, case):
 
 def _frictional(comm, c_reg, phi_deg=40.0):
     """c = 0 (regularised by c_reg), phi, psi = 0, plane-strain-matched Drucker-Prager, gravity, mu = 0.8,
-    penalty alpha = 1, on the fast quarter block (the setup of benchmarks/bench_frictional_wheel.py)."""
+    penalty alpha = 1, on the fast quarter block (the setup of `python -m benchmarks indentation frictional`)."""
     from rollsim.solver.materials import regularised_cohesion
     c, reg = regularised_cohesion(0.0, phi_deg * DEG, c_reg=c_reg)
     assert reg and c == c_reg
@@ -113,7 +113,7 @@ def frictional_1kpa(comm):
 @pytest.mark.slow
 def test_purely_frictional_soil_with_gravity_converges(frictional_1kpa):
     """c = 0, phi = 40 deg, psi = 0 with gravity, mu = 0.8: indentation to s/d = 0.02 converges (the
-    runs to s/d = 0.1 for phi = 35/40/45 are in benchmarks/bench_frictional_wheel.py).
+    runs to s/d = 0.1 for phi = 35/40/45 are in `python -m benchmarks indentation frictional`).
 
     What makes it run (docs, "Purely frictional soil (c = 0) under the wheel"; measured): the
     plane-strain Drucker-Prager match (the compression match at phi = 40 deg, tan(phi_dp) = 1.64,

@@ -1,4 +1,4 @@
-"""The CalculiX deck of the peer benchmark (benchmarks/bench_peer_calculix.py) holds the mesh
+"""The CalculiX deck of the peer benchmark (``python -m benchmarks peer_calculix``) holds the mesh
 rollsim solves: every quadratic tetrahedron positive and the block's volume exact, the contact
 faces on the soil surface, the wheel facets on the wheel surface facing the soil.  CalculiX
 itself is not needed (the benchmark runs it)."""

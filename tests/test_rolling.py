@@ -1,8 +1,8 @@
 """Towed rigid wheel, protocol rolling-continuous (solver/rolling.py): half model, torque balance, MPI.
 
 Tiny variants (fast preset on a short, narrow block, 0.1 d of travel); the report-size case, the
-bearing-capacity comparison and the ramp-rate effect are in benchmarks/bench_rolling.py, the
-layered influence depth in benchmarks/bench_layered_influence.py.
+bearing-capacity comparison and the ramp-rate effect are in `python -m benchmarks rolling report`, the
+layered influence depth in `python -m benchmarks validation layered`.
 """
 from __future__ import annotations
 
@@ -458,7 +458,7 @@ def _drops(comm, top, weak, depths, sinkage, relaxation_length=0.0, travel=0.05 
 
 @pytest.mark.slow
 def test_influence_depth_strong_over_very_weak_clay(comm):
-    """Fast variant of the layered cases 17-19 (benchmarks/bench_layered_influence.py): strong
+    """Fast variant of the layered cases 17-19 (`python -m benchmarks validation layered`): strong
     clay (c = 150 kPa, E = 40 MPa) over very weak clay (c = 10 kPa, E = 10 MPa), mu = 0.8, held at
     s/d = 0.02 on the tiny block (0.8 d deep) and rolled 0.05 d.  The weak clay from 0.2 / 0.4 /
     0.6 d lowers Q_V by 37.9 / 4.2 / 0.3 % (measured; 38.3 / 4.0 / 0.7 % after 0.1 d), so with the
@@ -649,7 +649,7 @@ def test_continued_constant_load_run_skips_the_press(comm, tmp_mpi_path, monkeyp
 @pytest.mark.slow
 def test_constant_load_rolling(tmp_mpi_path):
     """rolling-constant-load through run_scene (fast mesh, short block, serial; the report-size
-    runs are in benchmarks/bench_rolling_protocols.py): Q_V is held to load_rtol at every rolled step, the wheel leaves the stiff start zone and sinks
+    runs are in `python -m benchmarks rolling protocols`): Q_V is held to load_rtol at every rolled step, the wheel leaves the stiff start zone and sinks
     deeper into the clay, a steady state is detected (trend of s below steady_rtol over the
     window), and after the wheel is lifted the permanent rut is shallower than the sinkage
     (elastic rebound > 0) but deeper than the sinkage on the stiff zone.

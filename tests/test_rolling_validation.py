@@ -1,5 +1,5 @@
-"""Fast variants of the rolling validations (full runs: benchmarks/bench_lab_rolling.py,
-bench_rolling_protocols.py; figures in the docs, "Rolling").
+"""Fast variants of the rolling validations (full runs: `python -m benchmarks validation lab`,
+`python -m benchmarks rolling protocols`; figures in the docs, "Rolling").
 
 Laboratory rolling on the soft clay (studies/data/lab_rolling.csv): the
 small aluminium wheel held at the smallest measured sinkage, on the lab bed's cross-section.

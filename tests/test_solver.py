@@ -2,7 +2,7 @@
 
 Reference values are independent of the code under test: closed-form yield conditions, finite
 differences of the return map, the Mohr-Coulomb criterion, and the Prandtl-Reissner N_c.
-Full-resolution variants: benchmarks/bench_solver_prandtl.py.
+Full-resolution variants: `python -m benchmarks solver prandtl`.
 """
 from __future__ import annotations
 

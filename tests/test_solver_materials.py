@@ -3,7 +3,7 @@ strip-footing limit load; geostatic K0 helpers.
 
 References independent of the code under test: the exact Mohr-Coulomb criterion from principal
 stresses (numpy eigvalsh), central finite differences of the return map, the Prandtl-Reissner
-N_c.  Full-resolution variants: benchmarks/bench_solver_frictional.py.
+N_c.  Full-resolution variants: `python -m benchmarks solver frictional`.
 """
 from __future__ import annotations
 

@@ -2,7 +2,7 @@
 K0 outside the yield surface, run guards, and extremes (phi_dp = 60 deg, nu = 0.49, a 30:1
 strength contrast between two layers).  Every case must converge or fail with a clear
 SolverDivergedError (state restored), never hang.  Long variants:
-benchmarks/bench_solver_frictional.py.
+`python -m benchmarks solver frictional`.
 """
 from __future__ import annotations
 
@@ -82,7 +82,7 @@ def test_nonassociated_c0_footing_between_davis_and_associated(comm):
     non-associated reduction grows with phi.  Measured at settlement 0.005 B (phi 30) / 0.008 B (35):
     8.029 between 5.135 and 8.826 (0.91 of it); 16.00 between 8.65 and 19.86 (0.81).  The
     associated-formula cone ("plane_strain") with psi = 0 is a weaker soil (28.7 / 33.0 deg in plane
-    strain): 6.678 / 12.85.  On n = 4 the psi = 0 runs stall (benchmarks/bench_solver_frictional.py,
+    strain): 6.678 / 12.85.  On n = 4 the psi = 0 runs stall (`python -m benchmarks solver frictional`,
     case 4), so there is no mesh convergence here."""
     ratios = []
     for phi_deg, settle in ((30.0, 0.005), (35.0, 0.008)):

@@ -341,7 +341,7 @@ def test_steady_state_is_where_a_transient_rolling_load_settles():
     (h = a/2), solved step by step: 3 a behind the load its residual sigma_xx and plastic shear
     strain along the depth and its residual surface displacement (each less the elastic soil's on
     its own block) agree with the steady state's within 8.4, 6.6 and 5.4 % (measured;
-    benchmarks/bench_steady.py hertz on the finer mesh)."""
+    python -m benchmarks steady hertz on the finer mesh)."""
     window = RollingWindow(half_width=1.0, ahead=6.0, behind=10.0, depth=10.0, cells_per_half_width=2)
     behind = {}
     for material in (SOIL, NEVER_YIELDS):

@@ -6,7 +6,7 @@ projection onto linear functions), central differences of the residual for the a
 and Prandtl's (2 + pi) c for a smooth rigid strip on weightless Tresca soil - on Q2 rectangles,
 and in 3D on slabs of tetrahedra or hexahedra held in plane strain, where the pointwise strain
 locks.  2D Prandtl on triangles with both formulations: tests/test_solver.py; full figures:
-benchmarks/bench_solver_prandtl.py and benchmarks/bench_indentation.py (docs, "Volumetric locking").
+`python -m benchmarks solver prandtl` and `python -m benchmarks indentation cases` (docs, "Volumetric locking").
 """
 from __future__ import annotations
 

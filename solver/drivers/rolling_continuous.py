@@ -16,7 +16,7 @@ log = get_logger("run")
 
 #: fastest sinkage ramp of the continuous protocol shown to be slow enough (s per unit travel,
 #: = s/d per d): halving it moves Q_V by less than the fast mesh's ripple
-#: (``benchmarks/bench_rolling.py``; measured: see docs/benchmarks.md, "Ramp rate")
+#: (``python -m benchmarks rolling report``; measured: see docs/benchmarks.md, "Ramp rate")
 VERIFIED_RAMP_RATE = 0.02
 
 
