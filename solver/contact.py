@@ -208,14 +208,7 @@ class RigidWheelContact:
         X = ufl.SpatialCoordinate(msh)
         x = X + u
         iv = gdim - 1                      # vertical axis; rotation in the plane (0, iv)
-
-        def rot(theta, a, transpose=False):
-            cth, sth = ufl.cos(theta), ufl.sin(theta)
-            s = -sth if transpose else sth
-            comps = [a[i] for i in range(gdim)]
-            comps[0] = cth * a[0] + s * a[iv]
-            comps[iv] = -s * a[0] + cth * a[iv]
-            return ufl.as_vector(comps)
+        rot = self._rotate
 
         # the pose's unknowns of a bordered Newton step (axle height, rotation) as UFL variables,
         # so forms can be differentiated with respect to them (see :meth:`pose_derivatives`)
@@ -238,24 +231,9 @@ class RigidWheelContact:
             pN = self._kappa_c * _pos(-g)
         traction = pN * n
         if self.friction > 0:
-            V = pb.V
-            self.t_n = fem.Function(V, name="friction_traction_converged")
+            # where the surface point was at the last converged pose, carried with the wheel
             x_prev = self.centre_n + rot(self.angle_n, rot(angle, x - centre, transpose=True))
-            slip = x_prev - (X + u_n)
-            PT = ufl.Identity(gdim) - ufl.outer(n, n)
-            t_tr = ufl.dot(PT, self.t_n) - self._kt_c * ufl.dot(PT, slip)
-            norm = ufl.sqrt(ufl.dot(t_tr, t_tr))
-            limit = self._mu_c * pN
-            t_T = ufl.conditional(ufl.le(norm, limit), t_tr, limit * t_tr / ufl.max_value(norm, 1e-300))
-            traction = traction + t_T
-            self._t_T, self._t_tr = t_T, t_tr
-            self._t_T_expr = compat.expression(t_T, compat.interpolation_points(V))
-            # history lives at the nodes of the surface cells only
-            fdim = msh.topology.dim - 1
-            msh.topology.create_connectivity(fdim, msh.topology.dim)
-            facets = np.concatenate([facet_tags.find(i) for i in ids])
-            self._hist_cells = np.unique(compat.incident_entities(msh, facets, fdim, msh.topology.dim))
-            self._t_n_saved = self.t_n.x.array.copy()
+            traction = traction + self._init_friction(x_prev - (X + u_n), n, pN, facet_tags, ids)
         else:
             self.t_n = None
         self.pressure = pN
@@ -264,16 +242,52 @@ class RigidWheelContact:
         pb.add_residual_term(F)
         pb.add_state_hooks(commit=self.commit, restore=self.restore)
 
-        # resultant forms (on the wheel = - on the soil)
+        self._init_resultants(x - centre, traction, g)
+        self._border_forms: dict = {}
+        self._committed = None
+
+    def _init_resultants(self, r, traction, g) -> None:
+        """The forms of the force and the moment on the wheel (minus those on the soil; ``r``: the
+        surface point from the axle) and of the contact area (``g < 0``)."""
+        gdim, iv = self.gdim, self.gdim - 1
         self._force_forms = [fem.form(-traction[i] * self.ds) for i in range(gdim)]
-        r = x - centre
         # moment about the axle (+y in 3D, +z in 2D) of the force -traction applied at x
         mom = -(r[iv] * traction[0] - r[0] * traction[iv]) if gdim == 3 else -(r[0] * traction[1] - r[1] * traction[0])
         self._moment_form = fem.form(mom * self.ds)
         self._resultants = {"vertical_force": -traction[iv], "moment": mom}
-        self._border_forms: dict = {}
         self._area_form = fem.form(ufl.conditional(ufl.lt(g, 0.0), 1.0, 0.0) * self.ds)
-        self._committed = None
+
+    def _rotate(self, theta, a, transpose: bool = False):
+        """``a`` turned by ``theta`` in the plane of the first and the vertical axis (UFL)."""
+        iv = self.gdim - 1
+        cth, sth = ufl.cos(theta), ufl.sin(theta)
+        s = -sth if transpose else sth
+        comps = [a[i] for i in range(self.gdim)]
+        comps[0] = cth * a[0] + s * a[iv]
+        comps[iv] = -s * a[0] + cth * a[iv]
+        return ufl.as_vector(comps)
+
+    def _init_friction(self, slip, n, pN, facet_tags, ids):
+        """The Coulomb traction (UFL) for the surface's ``slip`` since the last converged state,
+        the normal ``n`` and the pressure ``pN``: trial ``t_n - k_T slip`` in the tangent plane,
+        returned to ``|t| <= mu pN``; its history :attr:`t_n` at the surface cells' nodes."""
+        pb, msh, gdim = self.problem, self.problem.mesh, self.gdim
+        V = pb.V
+        self.t_n = fem.Function(V, name="friction_traction_converged")
+        PT = ufl.Identity(gdim) - ufl.outer(n, n)
+        t_tr = ufl.dot(PT, self.t_n) - self._kt_c * ufl.dot(PT, slip)
+        norm = ufl.sqrt(ufl.dot(t_tr, t_tr))
+        limit = self._mu_c * pN
+        t_T = ufl.conditional(ufl.le(norm, limit), t_tr, limit * t_tr / ufl.max_value(norm, 1e-300))
+        self._t_T, self._t_tr = t_T, t_tr
+        self._t_T_expr = compat.expression(t_T, compat.interpolation_points(V))
+        # history lives at the nodes of the surface cells only
+        fdim = msh.topology.dim - 1
+        msh.topology.create_connectivity(fdim, msh.topology.dim)
+        facets = np.concatenate([facet_tags.find(i) for i in ids])
+        self._hist_cells = np.unique(compat.incident_entities(msh, facets, fdim, msh.topology.dim))
+        self._t_n_saved = self.t_n.x.array.copy()
+        return t_T
 
     # ------------------------------------------------------------------ pose and history
     def set_pose(self, centre=None, angle: float | None = None) -> None:

@@ -27,16 +27,13 @@ the forms' sparsity (contact of two bodies, ``solver/contact_pair.py``).  A cell
 """
 from __future__ import annotations
 
-import contextlib
 import math
 import time
-from dataclasses import dataclass, field
-from typing import Protocol, Sequence
+from typing import Sequence
 
 import numpy as np
 import ufl
 from dolfinx import fem
-from dolfinx.fem import petsc as fpetsc
 from mpi4py import MPI
 from petsc4py import PETSc
 
@@ -44,7 +41,11 @@ from rollsim import compat
 from rollsim.log import get_logger
 
 from .cell_average import CellProjection
+from .linear_solver import (AUTO_ITERATIVE_DOFS, DEFAULT_PETSC_OPTIONS, ITERATIVE_SOLVER_OPTIONS,
+                            LinearSolverChoice, _first_line, rigid_body_modes)
 from .materials import NeoHookean
+from .newton import (REASON_PETSC_ERROR, REASON_RETURN_MAP, STAGNATION, Border, NewtonDriver, NewtonReport,
+                     ReturnMapError)
 from .options import (DEFAULT_VOLUMETRIC_STRAIN, KINEMATICS, LINEAR_SOLVERS, PLATEAU_RTOL, VOLUMETRIC_STRAINS,
                       check_choice)
 from .return_map import (APEX, ELASTIC, PLASTIC, ReturnResult, duvaut_lions, elastic_stiffness, return_map,
@@ -52,78 +53,11 @@ from .return_map import (APEX, ELASTIC, PLASTIC, ReturnResult, duvaut_lions, ela
 
 __all__ = ["NewtonReport", "PlasticityProblem", "mandel_strain", "DEFAULT_PETSC_OPTIONS", "PLATEAU_RTOL",
            "ITERATIVE_SOLVER_OPTIONS", "LINEAR_SOLVERS", "AUTO_ITERATIVE_DOFS", "REASON_PETSC_ERROR",
-           "rigid_body_modes"]
+           "REASON_RETURN_MAP", "STAGNATION", "Border", "ReturnMapError", "rigid_body_modes"]
 
 log = get_logger("solver")
 
-DEFAULT_PETSC_OPTIONS = {
-    "snes_type": "newtonls",
-    "snes_linesearch_type": "basic",   # full Newton steps; "bt" for backtracking
-    "snes_max_it": 25,
-    "snes_rtol": 1e-9,
-    "snes_atol": 1e-30,
-    "snes_stol": 0.0,
-    "ksp_type": "preonly",
-    "pc_type": "lu",
-    "pc_factor_mat_solver_type": "mumps",
-}
-
-#: Newton stops (``DIVERGED_LOCAL_MIN``, so the stepper cuts the step; below
-#: :data:`~rollsim.solver.options.PLATEAU_RTOL` it accepts the step instead) when ``|F|`` has
-#: repeated itself, within the relative ``tolerance`` of the value one or two iterations before (a flat
-#: plateau or a two-cycle), in ``iterations`` consecutive iterations: ``(iterations, tolerance)``;
-#: ``(0, 0)`` switches it off.  Non-associated Drucker-Prager sand (layered cases 13-15) stalls at
-#: flat plateaus, frictional contact cycles between two active sets; without this test both
-#: iterate to ``snes_max_it``.  Chosen on recorded residual histories of converged solves, none of
-#: which meets it (see docs/theory.md, "Step control and failures").
-STAGNATION = (3, 1e-3)
-
-
-#: ``linear_solver="auto"`` (see :data:`rollsim.solver.options.LINEAR_SOLVERS`): direct (MUMPS LU,
-#: :data:`DEFAULT_PETSC_OPTIONS`) up to this many global dofs, :data:`ITERATIVE_SOLVER_OPTIONS`
-#: above, where the LU factorisation dominates the run time (see docs/benchmarks.md, "Presets")
-AUTO_ITERATIVE_DOFS = 100_000
-
-#: GMRES (the tangent is unsymmetric with friction or non-associated flow) preconditioned by
-#: smoothed-aggregation AMG (GAMG) with the rigid-body modes as near-null space (attached by
-#: :class:`PlasticityProblem`).  Inexact Newton: a relative tolerance of 1e-6 gives the forces of
-#: 1e-10 in less time (``python -m benchmarks indentation cases --linear-solver iterative --petsc-option
-#: ksp_rtol=...``; measured: see docs/benchmarks.md, "Presets"); the Newton tolerance
-#: (``snes_rtol``), not this one, sets the accuracy.
-ITERATIVE_SOLVER_OPTIONS = {
-    "ksp_type": "gmres",
-    "ksp_gmres_restart": 150,
-    "ksp_rtol": 1e-6,
-    "ksp_max_it": 1500,
-    "pc_type": "gamg",
-    "pc_gamg_threshold": 0.02,
-    "pc_gamg_coarse_eq_limit": 1000,
-}
-
 _SQ2 = np.sqrt(2.0)
-
-#: ``NewtonReport.reason`` when PETSc raised inside SNES (the linear solver has been re-created)
-REASON_PETSC_ERROR = -100
-#: ``NewtonReport.reason`` when the return map failed at some quadrature point while evaluating
-#: the tangent (in a residual evaluation it makes the residual NaN: ``DIVERGED_FNORM_NAN``)
-REASON_RETURN_MAP = -101
-
-
-class ReturnMapError(RuntimeError):
-    """The return map failed at a quadrature point on some rank; raised on every rank, so a
-    Newton solve fails on all ranks together (the stepper cuts the step) instead of one rank
-    raising while the others wait in a collective operation."""
-
-
-def _first_line(err, limit: int = 200) -> str:
-    """One-line summary of an exception (PETSc errors carry a whole traceback): the message lines
-    without the ``[rank] Function() at file:line`` frames, joined, at most ``limit`` characters."""
-    import re
-    lines = [re.sub(r"^\[\d+\]\s*", "", ln).strip() for ln in str(err).splitlines()]
-    msg = [ln for ln in lines if ln and "() at " not in ln and not ln.startswith("error code")
-           and not set(ln) <= set("-")]
-    text = "; ".join(msg) or type(err).__name__
-    return text if len(text) <= limit else text[: limit - 3] + "..."
 
 
 def mandel_strain(u, gdim: int, F_inv=None, centroid=None):
@@ -150,82 +84,7 @@ def mandel_strain(u, gdim: int, F_inv=None, centroid=None):
     raise ValueError(f"gdim must be 2 or 3, got {gdim}")
 
 
-@dataclass
-class NewtonReport:
-    converged: bool
-    iterations: int
-    reason: int
-    residual_norms: list[float] = field(default_factory=list)
-    time: float = 0.0
-    counts: dict = field(default_factory=dict)   # global elastic/plastic/apex quadrature points
-    linear_solves: int = 0
-    #: ``|F|`` over the internal-force norm of an accepted plateau (see :data:`PLATEAU_RTOL`); 0: none
-    plateau: float = 0.0
-    plateau_repeats: int = 0       # iterations spent on that plateau before it was accepted
-
-
-class Border(Protocol):
-    """Extra unknowns ``q`` (``size`` of them) and equations ``G(u, q) = 0`` appended to a
-    problem's Newton system (:meth:`PlasticityProblem.solve_increment`)."""
-
-    size: int
-    #: the unknowns are held at their values (plain Newton on the displacement) until the force
-    #: residual is below ``hold_rtol`` times its initial value (0: until it has converged) and
-    #: below ``hold_force`` (N; ``inf``: no such bound)
-    hold_rtol: float
-    hold_force: float
-
-    def evaluate(self):
-        """At the current displacement and ``q``: an object with ``values`` G (n), ``d_pose``
-        dG/dq (n x n), ``d_displacement`` dG/du and ``residual_d_pose`` dr/dq (n PETSc vectors
-        each, Dirichlet rows 0), as :class:`~rollsim.solver.contact.PoseDerivatives`."""
-
-    def satisfied(self, values: np.ndarray) -> bool:
-        """Whether ``G`` is within its tolerance."""
-
-    #: weights of ``G`` in the line search's merit function ``|r|^2 + |W G|^2`` (N per unit of G)
-    merit_weights: np.ndarray
-
-    def limit(self, dq: np.ndarray) -> np.ndarray:
-        """The increment to take for the proposed Newton increment ``dq``."""
-
-    def move(self, dq: np.ndarray) -> None:
-        """Add ``dq`` to the unknowns."""
-
-
-def rigid_body_modes(V) -> PETSc.NullSpace:
-    """Orthonormal rigid-body modes of the vector space ``V`` (3 in 2D, 6 in 3D) as a PETSc null
-    space: the near-null space that AMG needs to coarsen elasticity well."""
-    gdim = V.mesh.geometry.dim
-    n_own = V.dofmap.index_map.size_local
-    x = V.tabulate_dof_coordinates()[:n_own]
-    modes = [np.zeros((n_own, gdim)) for _ in range(3 if gdim == 2 else 6)]
-    for i in range(gdim):                          # translations
-        modes[i][:, i] = 1.0
-    rotations = [(0, 1)] if gdim == 2 else [(0, 1), (1, 2), (2, 0)]
-    for m, (i, j) in zip(modes[gdim:], rotations):  # rotations in the (i, j) planes
-        m[:, i], m[:, j] = -x[:, j], x[:, i]
-    vecs = []
-    for m in modes:
-        vec = PETSc.Vec().createMPI((n_own * gdim, PETSc.DECIDE), bsize=gdim, comm=V.mesh.comm)
-        vec.setArray(m.ravel())
-        for other in vecs:                         # Gram-Schmidt
-            vec.axpy(-vec.dot(other), other)
-        vec.normalize()
-        vecs.append(vec)
-    return PETSc.NullSpace().create(vectors=vecs, comm=V.mesh.comm)
-
-
-def _stalled(history: list[float], iterations: int, tolerance: float) -> bool:
-    """``|F|`` repeated (see :data:`STAGNATION`) in each of the last ``iterations`` iterations."""
-    if iterations <= 0 or len(history) < iterations + 2:
-        return False
-    h = history
-    return all(abs(h[i] - h[i - 1]) <= tolerance * h[i - 1] or abs(h[i] - h[i - 2]) <= tolerance * h[i - 2]
-               for i in range(len(h) - iterations, len(h)))
-
-
-class PlasticityProblem:
+class PlasticityProblem(NewtonDriver, LinearSolverChoice):
     """Elastoplastic solid on ``mesh`` (2D plane strain or 3D) with a numpy return map.
 
     Parameters
@@ -279,9 +138,39 @@ class PlasticityProblem:
         check_choice("kinematics", kinematics, KINEMATICS)
         check_choice("linear_solver", linear_solver, LINEAR_SOLVERS)
         check_choice("volumetric_strain", volumetric_strain, VOLUMETRIC_STRAINS)
-        self.kinematics = kinematics
+        self.kinematics, self.volumetric_strain = kinematics, volumetric_strain
         self.mesh = mesh
         self.comm = mesh.comm
+        self._init_materials(material, cell_tags)
+        self.gdim = mesh.geometry.dim
+        self.ncomp = 4 if self.gdim == 2 else 6
+        self.degree = degree
+        simplex = compat.cell_name(mesh) in ("triangle", "tetrahedron")
+        if volumetric_projection is not None and (simplex or volumetric_strain != "cell-average"):
+            raise ValueError("volumetric_projection applies to volumetric_strain='cell-average' on quadrilaterals "
+                             "and hexahedra only")
+        self.qdeg = (quadrature_degree if quadrature_degree is not None
+                     else max(2 * (degree - 1), 1) if simplex else 2 * degree)
+        self.V = compat.vector_space(mesh, degree)
+        self.n_dofs = self.V.dofmap.index_map.size_global * self.V.dofmap.index_map_bs   # global
+        self.bcs = list(bcs)
+        self._init_newton(force_rtol, plateau_rtol)
+        #: Duvaut-Lions regularisation of the next steps (:func:`~rollsim.solver.return_map.duvaut_lions`):
+        #: the step's pseudo-time over the relaxation time; ``inf`` (default): rate-independent
+        self.relaxation = math.inf
+        self._init_state()
+        F_inv, centroid = self._init_kinematics(simplex)
+        self._groups = self._material_groups(cell_tags)      # [(material, owned qp indices)]
+        self.K0 = None                                       # set by set_geostatic_stress
+        self._set_owned(self.tangent, self._elastic_tangent())
+        self._commit_hooks: list = []
+        self._restore_hooks: list = []
+        self._init_forms(cell_tags, body_force, F_inv, centroid, simplex, volumetric_projection)
+        self._init_linear_solver(linear_solver, petsc_options, options_prefix)
+
+    def _init_materials(self, material, cell_tags) -> None:
+        """:attr:`materials` ({cell tag: material}, or {None: material}), the hyperelastic bodies
+        among them and :attr:`material`, the first elastoplastic one."""
         # one material, or {cell tag: material} with ``cell_tags`` (e.g. soil layers): the return
         # map then runs per group of quadrature points; ``self.material`` is the first one
         if isinstance(material, dict):
@@ -300,30 +189,10 @@ class PlasticityProblem:
         if not plastic:
             raise ValueError("material: give at least one elastoplastic material besides the NeoHookean bodies")
         self.material = plastic[0]
-        self.gdim = mesh.geometry.dim
-        self.ncomp = 4 if self.gdim == 2 else 6
-        self.degree = degree
-        simplex = compat.cell_name(mesh) in ("triangle", "tetrahedron")
-        if volumetric_projection is not None and (simplex or volumetric_strain != "cell-average"):
-            raise ValueError("volumetric_projection applies to volumetric_strain='cell-average' on quadrilaterals "
-                             "and hexahedra only")
-        self.qdeg = (quadrature_degree if quadrature_degree is not None
-                     else max(2 * (degree - 1), 1) if simplex else 2 * degree)
-        self.V = compat.vector_space(mesh, degree)
-        self.n_dofs = self.V.dofmap.index_map.size_global * self.V.dofmap.index_map_bs   # global
-        self.bcs = list(bcs)
-        self.force_rtol = force_rtol
-        self.plateau_rtol = PLATEAU_RTOL if plateau_rtol is None else plateau_rtol
-        #: accepted Newton plateaus: how many, and the largest ``|F| / |F_internal|`` left in one
-        self.plateaus = {"accepted": 0, "max_residual_ratio": 0.0}
-        self._plateau = 0.0
-        self.plateau_residual = 0.0
-        self.divergence_factor = 1e4
-        self.stagnation = STAGNATION
-        #: Duvaut-Lions regularisation of the next steps (:func:`~rollsim.solver.return_map.duvaut_lions`):
-        #: the step's pseudo-time over the relaxation time; ``inf`` (default): rate-independent
-        self.relaxation = math.inf
 
+    def _init_state(self) -> None:
+        """The displacement and the quadrature-point state: stress, plastic strain, tangent."""
+        mesh = self.mesh
         nc = self.ncomp
         self.Qs = compat.quadrature_space(mesh, self.qdeg, (nc,))
         self.Qt = compat.quadrature_space(mesh, self.qdeg, (nc * nc,))
@@ -336,30 +205,34 @@ class PlasticityProblem:
         self._deps_q = fem.Function(self.Qs)
         self._deps_p = np.zeros((0, nc))
         self.state = np.zeros(0, dtype=np.int8)
-
         tdim = mesh.topology.dim
         self.n_cells = mesh.topology.index_map(tdim).size_local
         self.points = compat.quadrature_points(mesh, self.qdeg)
         self.n_qp = self.n_cells * self.points.shape[0]      # owned quadrature points
+
+    def _init_kinematics(self, simplex: bool):
+        """The strain of a displacement (small strain, or on the last converged configuration;
+        B-bar on simplices by a Taylor value); returns ``F_inv`` and the cells' midpoints (B-bar
+        on simplices, else ``None``)."""
+        kinematics, mesh = self.kinematics, self.mesh
         if kinematics == "updated-lagrangian":
             F_n = ufl.Identity(self.gdim) + ufl.grad(self.u_n)
             F_inv, self._J_n = ufl.inv(F_n), ufl.det(F_n)
         else:
             F_inv, self._J_n = None, 1.0
-        self.volumetric_strain = volumetric_strain
         # B-bar: a Taylor value about the midpoint on simplices (the exact mean for P2 on affine
         # cells), an exact projection per cell on quadrilaterals and hexahedra (solver/cell_average.py)
-        bbar = volumetric_strain == "cell-average"
+        bbar = self.volumetric_strain == "cell-average"
         centroid = compat.cell_midpoints(mesh) if bbar and simplex else None
         self._strain = lambda w: mandel_strain(w, self.gdim, F_inv, centroid)
         self._deps_expr = compat.expression(self._strain(self.u - self.u_n), self.points)
+        return F_inv, centroid
 
-        self._groups = self._material_groups(cell_tags)      # [(material, owned qp indices)]
-        self.K0 = None                                       # set by set_geostatic_stress
-        self._set_owned(self.tangent, self._elastic_tangent())
-        self._commit_hooks: list = []
-        self._restore_hooks: list = []
-
+    def _init_forms(self, cell_tags, body_force, F_inv, centroid, simplex: bool, volumetric_projection) -> None:
+        """The bodies' residual and Jacobian forms: the elastoplastic soil (B-bar by the cell
+        projection on quadrilaterals and hexahedra) and the hyperelastic bodies."""
+        mesh, degree, nc = self.mesh, self.degree, self.ncomp
+        bbar = self.volumetric_strain == "cell-average"
         self.dx = ufl.Measure("dx", domain=mesh, metadata={"quadrature_degree": self.qdeg,
                                                             "quadrature_scheme": "default"})
         # the elastoplastic terms run over the elastoplastic cells only when there is another body
@@ -408,22 +281,8 @@ class PlasticityProblem:
         self._F_terms = [bodies]     # the bodies' internal minus external force (internal_force)
         self._J_terms = [jacobian]
         self._assembled_terms: list = []
-        self._compiled = False
         self._internal_force_forms: dict = {}
 
-        self.options_prefix = options_prefix
-        #: "auto" chose the iterative solver: it gives way to the direct one where it fails
-        self._auto_iterative = linear_solver == "auto" and self.n_dofs > AUTO_ITERATIVE_DOFS
-        if linear_solver == "auto":
-            linear_solver = "iterative" if self._auto_iterative else "direct"
-        self.linear_solver = linear_solver
-        self._user_petsc_options = dict(petsc_options or {})
-        self.petsc_options = self._solver_options(linear_solver)
-        self.timings = {"residual": 0.0, "jacobian": 0.0, "return_map": 0.0, "snes": 0.0, "iterations": 0,
-                        "linear_solves": 0}
-        self._force_scale = 0.0
-        self._gap = None                 # work vector of _dirichlet_gap
-        self._history: list[float] = []
 
     # ------------------------------------------------------------------ helpers
     def _material_groups(self, cell_tags):
@@ -656,346 +515,6 @@ class PlasticityProblem:
         self.comm.Allreduce(loc, glob)
         return dict(zip(("elastic", "plastic", "apex"), map(int, glob)))
 
-    # ------------------------------------------------------------------ SNES plumbing
-    def _compile(self) -> None:
-        if self._compiled:
-            return
-        self._F_form = fem.form(sum(self._F_terms[1:], self._F_terms[0]))
-        self._J_form = fem.form(sum(self._J_terms[1:], self._J_terms[0]))
-        self._b = compat.create_vector(self._F_form)
-        self._A = fpetsc.create_matrix(self._J_form)
-        if self._assembled_terms:
-            self._A.setOption(PETSc.Mat.Option.NEW_NONZERO_ALLOCATION_ERR, False)
-        self._x = compat.petsc_vector(self.u).copy()
-        self._x_last = compat.petsc_vector(self.u).copy()
-        snes = PETSc.SNES().create(self.comm)
-        snes.setOptionsPrefix(self.options_prefix)
-        self._push_options()
-        snes.setFunction(self._snes_F, self._b)
-        snes.setJacobian(self._snes_J, self._A)
-        snes.setConvergenceTest(self._snes_converged)
-        snes.setFromOptions()
-        snes.getKSP().setFromOptions()
-        if snes.getKSP().getPC().getType() == "gamg":
-            self._A.setNearNullSpace(rigid_body_modes(self.V))
-        self.snes = snes
-        self._compiled = True
-
-    def _push_options(self) -> None:
-        """Write this problem's options to the (process-global) PETSc options database under its
-        prefix; another problem with the same prefix may have overwritten them since."""
-        opts = PETSc.Options()
-        for k, val in self.petsc_options.items():
-            opts[self.options_prefix + k] = val
-
-    def _load_x(self, x) -> None:
-        x.copy(compat.petsc_vector(self.u))
-        self.u.x.scatter_forward()
-
-    def _snes_F(self, snes, x, b) -> None:
-        t0 = time.perf_counter()
-        x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
-        self._load_x(x)
-        try:
-            self.constitutive_update(tangent=True)
-        except ReturnMapError as err:       # on all ranks: a NaN residual ends the solve
-            log.info("%s; the residual is set to NaN", err)
-            b.set(np.nan)
-            return
-        x.copy(self._x_last)
-        with b.localForm() as b_local:
-            b_local.set(0.0)
-        fpetsc.assemble_vector(b, self._F_form)
-        b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-        self._force_scale = b.norm()      # includes the reactions: units-consistent floor
-        with b.localForm() as b_local:       # ghosts were added to their owners: clear them
-            b_local.array[b.getLocalSize():] = 0.0
-        for term in self._assembled_terms:
-            term.add_residual(b)
-        if self._dirichlet_gap(x):
-            compat.apply_lifting(b, [self._J_form], self.bcs, x, scale=-1.0)
-            b.ghostUpdate(addv=PETSc.InsertMode.ADD, mode=PETSc.ScatterMode.REVERSE)
-            if self._projection is not None:
-                self._projection.lift_residual(b, self.bcs, x, self._owned(self.tangent, self.ncomp ** 2))
-        compat.set_bc(b, self.bcs, x, -1.0)
-        self.timings["residual"] += time.perf_counter() - t0
-
-    def _dirichlet_gap(self, x) -> bool:
-        """Whether ``x`` misses a Dirichlet value anywhere (collective).  Where it does not, the
-        lifting of the residual adds exactly zero and is skipped: it runs the tangent's element
-        kernels on every constrained cell (its cost: see
-        docs/speed-accuracy-details.md, "Where the time goes: levers")."""
-        if not self.bcs:
-            return False
-        if self._gap is None:
-            self._gap = x.duplicate()
-        self._gap.set(0.0)
-        compat.set_bc(self._gap, self.bcs, x, 1.0)
-        return self._gap.norm(PETSc.NormType.NORM_INFINITY) > 0.0
-
-    def _snes_J(self, snes, x, A, P) -> None:
-        t0 = time.perf_counter()
-        if not x.equal(self._x_last):      # the tangent must belong to this x
-            x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
-            self._load_x(x)
-            self.constitutive_update(tangent=True)
-            x.copy(self._x_last)
-        self._assemble_jacobian(A)
-        self.timings["jacobian"] += time.perf_counter() - t0
-
-    def _assemble_jacobian(self, A) -> None:
-        A.zeroEntries()
-        fpetsc.assemble_matrix(A, self._J_form, self.bcs)
-        if self._assembled_terms:
-            A.assemble(PETSc.Mat.AssemblyType.FLUSH)
-            for term in self._assembled_terms:
-                term.add_jacobian(A)
-        A.assemble()
-        if self._projection is not None:
-            self._projection.add_jacobian(A, self.bcs, self._owned(self.tangent, self.ncomp ** 2))
-
-    def _snes_converged(self, snes, it, norms):
-        xnorm, gnorm, fnorm = norms
-        self._history.append(float(fnorm))
-        self._plateau = 0.0
-        rtol, atol, stol, max_it = snes.getTolerances()
-        if not np.isfinite(fnorm):
-            return PETSc.SNES.ConvergedReason.DIVERGED_FNORM_NAN
-        if it == 0:
-            self._fnorm0 = fnorm
-            if fnorm <= atol:
-                return PETSc.SNES.ConvergedReason.CONVERGED_FNORM_ABS
-            return PETSc.SNES.ConvergedReason.ITERATING
-        if fnorm <= atol or fnorm <= self.force_rtol * self._force_scale:
-            return PETSc.SNES.ConvergedReason.CONVERGED_FNORM_ABS
-        if fnorm <= rtol * self._fnorm0:
-            return PETSc.SNES.ConvergedReason.CONVERGED_FNORM_RELATIVE
-        if fnorm > self.divergence_factor * self._fnorm0:      # fail fast, the stepper cuts
-            return PETSc.SNES.ConvergedReason.DIVERGED_DTOL
-        if _stalled(self._history, *self.stagnation):
-            if fnorm <= self.plateau_rtol * self._force_scale:       # a plateau at the noise floor
-                self._plateau = fnorm / self._force_scale
-                return PETSc.SNES.ConvergedReason.CONVERGED_FNORM_ABS
-            return PETSc.SNES.ConvergedReason.DIVERGED_LOCAL_MIN     # a plateau or a cycle: cut now
-        if it >= max_it:
-            return PETSc.SNES.ConvergedReason.DIVERGED_MAX_IT
-        return PETSc.SNES.ConvergedReason.ITERATING
-
-    # ------------------------------------------------------------------ public stepping API
-    def solve_increment(self, border: "Border | None" = None) -> NewtonReport:
-        """Newton solve from the last converged state for the current boundary data.
-
-        ``border``: extra unknowns solved with the displacement in one Newton system (see
-        :class:`Border`; e.g. the wheel's rotation and height); ``None``: PETSc SNES.
-        Does not commit: call :meth:`commit` (accept) or :meth:`restore` (reject) afterwards.
-        """
-        self._compile()
-        self._history = []
-        self._linear_solves = 0
-        t0 = time.perf_counter()
-        compat.petsc_vector(self.u).copy(self._x)
-        # an automatic iterative choice that fails gives way to the direct solver, which then
-        # repeats a plain solve from the same start (a bordered one is cut and repeated by its caller)
-        start = self._x.copy() if self._auto_iterative and self.linear_solver == "iterative" else None
-        retry = False
-        its = 0
-        try:
-            if border is None:
-                self.snes.solve(None, self._x)
-                reason, its = self.snes.getConvergedReason(), self.snes.getIterationNumber()
-                self._linear_solves = its
-            else:
-                reason, its = self._bordered_newton(border)
-        except PETSc.Error as err:        # e.g. a zero pivot in the factorisation
-            # one line (a flooded stdout/stderr pipe has killed a rank under mpirun); the full
-            # PETSc traceback only at DEBUG
-            its = max(len(self._history) - 1, 0)
-            code = getattr(err, "ierr", None)
-            log.warning("Newton raised PETSc error %s after %d iterations (%s); linear solver re-created",
-                        code, its, _first_line(err))
-            log.debug("PETSc error traceback:\n%s", err)
-            reason = REASON_PETSC_ERROR
-            self.reset_linear_solver()
-        except ReturnMapError as err:       # raised in the tangent's evaluation, on all ranks
-            its = max(len(self._history) - 1, 0)
-            log.info("%s (tangent)", err)
-            reason = REASON_RETURN_MAP
-            self.reset_linear_solver()
-        if reason == PETSc.SNES.ConvergedReason.DIVERGED_LINEAR_SOLVE:
-            # a failed MUMPS factorisation (e.g. zero pivots from apex points) leaves the factor in
-            # its error state and every later factorisation is skipped: without a fresh linear
-            # solver all following (cut) steps fail the same way
-            log.info("linear solve failed inside Newton (%s); linear solver re-created",
-                     self.snes.getKSP().getConvergedReason())
-            if start is not None:
-                self._use_direct_solver()
-                retry = border is None
-            self.reset_linear_solver()
-        dt = time.perf_counter() - t0
-        self.timings["snes"] += dt
-        self.timings["iterations"] += its
-        self.timings["linear_solves"] += self._linear_solves
-        if start is not None:
-            if retry:
-                self._load_x(start)
-            start.destroy()
-        if retry:
-            return self.solve_increment()
-        converged = reason > 0
-        plateau = self._plateau if converged else 0.0
-        #: ``|F|`` (N) left by the last solve if it ended on an accepted plateau, else 0
-        self.plateau_residual = plateau * self._force_scale
-        if plateau:
-            self.plateaus["accepted"] += 1
-            self.plateaus["max_residual_ratio"] = max(self.plateaus["max_residual_ratio"], plateau)
-        if converged:
-            self._x.ghostUpdate(addv=PETSc.InsertMode.INSERT, mode=PETSc.ScatterMode.FORWARD)
-            self._load_x(self._x)
-            self.constitutive_update(tangent=False)   # stress of the accepted iterate
-        return NewtonReport(converged=converged, iterations=its, reason=int(reason),
-                            residual_norms=list(self._history), time=dt,
-                            counts=self.counts() if converged else {}, linear_solves=self._linear_solves,
-                            plateau=plateau, plateau_repeats=self.stagnation[0] if plateau else 0)
-
-    def _bordered_newton(self, border: "Border") -> tuple[int, int]:
-        """Newton's method on ``(u, q)`` with the border's equations ``G(u, q) = 0``; returns the
-        (SNES-style) converged reason and the number of iterations.
-
-        Each iteration solves ``[K B; C D] [du; dq] = -[r; G]`` by block elimination with the
-        problem's linear solver: ``K y0 = r`` and ``K Y = B`` (one factorisation or
-        preconditioner set-up, ``1 + m`` solves), ``(D - C Y) dq = C y0 - G`` (m x m),
-        ``du = -(y0 + Y dq)`` with ``dq`` as limited by ``border.limit`` (``du`` then solves the
-        soil's equations for that ``dq``).  The step is then backtracked on
-        ``|r|^2 + |W G|^2`` (``W = border.merit_weights``) when the problem's SNES line search
-        is ``bt``.  Converged when the force residual passes the usual test and
-        ``border.satisfied(G)``."""
-        ITERATING = PETSc.SNES.ConvergedReason.ITERATING
-        ksp, x, b, A = self.snes.getKSP(), self._x, self._b, self._A
-        max_it = self.snes.getTolerances()[3]
-        backtrack = self.petsc_options.get("snes_linesearch_type") == "bt"
-        y0, x_old = x.duplicate(), x.duplicate()
-        Y = [x.duplicate() for _ in range(border.size)]
-
-        def holds(fnorm, force_ok):
-            """The pose is held (plain Newton on the displacement, border forms not assembled) until
-            the force residual is below hold_rtol of its initial value and below hold_force, or
-            has converged."""
-            return not force_ok and (fnorm > border.hold_rtol * self._fnorm0 or fnorm > border.hold_force)
-
-        def merit(fnorm, der):
-            return fnorm ** 2 + (0.0 if der is None else float(np.sum((border.merit_weights * der.values) ** 2)))
-
-        it = 0
-        self._snes_F(self.snes, x, b)
-        fnorm, der = b.norm(), None
-        try:
-            while True:
-                reason = self._snes_converged(self.snes, it, (0.0, 0.0, fnorm))
-                force_ok = reason > 0
-                held = holds(fnorm, force_ok)
-                if der is None and not held:
-                    der = border.evaluate()
-                if force_ok and not border.satisfied(der.values):
-                    reason = ITERATING if it < max_it else PETSc.SNES.ConvergedReason.DIVERGED_MAX_IT
-                if reason != ITERATING:
-                    return reason, it
-                self._snes_J(self.snes, x, A, A)
-                ksp.setOperators(A, A)
-                for rhs, sol in zip([b] if held else [b, *der.residual_d_pose], [y0, *Y]):
-                    ksp.solve(rhs, sol)
-                    self._linear_solves += 1
-                    if ksp.getConvergedReason() < 0:
-                        return PETSc.SNES.ConvergedReason.DIVERGED_LINEAR_SOLVE, it
-                dq = np.zeros(border.size)
-                if not held:
-                    C = der.d_displacement
-                    S = der.d_pose - np.array([[c.dot(y) for y in Y] for c in C]).reshape(der.d_pose.shape)
-                    rhs = np.array([c.dot(y0) for c in C]) - der.values
-                    try:
-                        dq = np.linalg.solve(S, rhs)
-                    except np.linalg.LinAlgError:
-                        dq = np.linalg.lstsq(S, rhs, rcond=1e-12)[0]
-                    dq = border.limit(dq)
-                    y0.maxpy(list(dq), Y)
-                phi0 = merit(fnorm, None if held else der)
-                x.copy(x_old)
-                lam, moved = 1.0, 0.0
-                for _ in range(8 if backtrack else 1):
-                    x_old.copy(x)
-                    x.axpy(-lam, y0)
-                    border.move((lam - moved) * dq)
-                    moved = lam
-                    self._snes_F(self.snes, x, b)
-                    fnorm, der = b.norm(), None if held else border.evaluate()
-                    phi = merit(fnorm, der)
-                    if phi <= (1.0 - 2e-4 * lam) * phi0 or not np.isfinite(phi0):
-                        break
-                    # minimum of the quadratic through phi0, phi'(0) = -2 phi0 and phi(lam)
-                    curv = (phi - phi0 + 2.0 * lam * phi0) / lam ** 2 if np.isfinite(phi) else np.inf
-                    lam = float(np.clip(phi0 / curv, 0.1 * lam, 0.5 * lam)) if curv > 0 else 0.5 * lam
-                it += 1
-                log.debug("  bordered Newton %d: |r| %.3e, step %.2g%s", it, fnorm, lam,
-                          "" if held else f", pose move {np.array2string(lam * dq, precision=3)}, "
-                          f"G {np.array2string(der.values, precision=3)}")
-        finally:
-            for vec in (y0, x_old, *Y):
-                vec.destroy()
-
-    @contextlib.contextmanager
-    def line_search(self, kind: str):
-        """Run the solves inside the ``with`` block with the SNES line search ``kind`` (``"basic"``:
-        full Newton steps, ``"bt"``: backtracking), then restore the problem's own."""
-        self._compile()
-        own = self.petsc_options.get("snes_linesearch_type", "basic")
-
-        def use(line_search: str) -> None:
-            self.petsc_options["snes_linesearch_type"] = line_search
-            self._push_options()
-            self.snes.setFromOptions()
-
-        use(kind)
-        try:
-            yield
-        finally:
-            use(own)
-
-    def _use_direct_solver(self) -> None:
-        """Switch an automatic choice of the iterative linear solver to the direct one (MUMPS LU)
-        for the rest of the run, after the iterative solve failed (e.g. GAMG on a tire's carcass
-        in contact with the soil); :attr:`linear_solver` then reads "direct"."""
-        log.warning("the iterative linear solver failed (%d dofs): the direct solver (MUMPS LU) takes "
-                    "over for the rest of the run", self.n_dofs)
-        opts = PETSc.Options()
-        for k in ITERATIVE_SOLVER_OPTIONS:
-            if k not in self._user_petsc_options:
-                opts.delValue(self.options_prefix + k)
-        self.linear_solver = "direct"
-        self.petsc_options = self._solver_options("direct")
-
-    def _solver_options(self, linear_solver: str) -> dict:
-        """The PETSc options of ``linear_solver`` ("direct" or "iterative"): the defaults, the
-        iterative solver's own, then the caller's ``petsc_options`` over them."""
-        iterative = ITERATIVE_SOLVER_OPTIONS if linear_solver == "iterative" else {}
-        return {**DEFAULT_PETSC_OPTIONS, **iterative, **self._user_petsc_options}
-
-    def reset_linear_solver(self) -> None:
-        """Give SNES a fresh KSP with the same options.  After a PETSc error inside SNES (e.g.
-        MUMPS failing on a singular tangent) the old KSP is unusable (PETSc 3.18: "Cannot embed
-        PCPreSolve() more than twice" on every later solve), so a cut step could never succeed.
-        :meth:`solve_increment` calls this itself after such an error."""
-        if not self._compiled:
-            return
-        try:
-            old = self.snes.getKSP()
-            ksp = PETSc.KSP().create(old.getComm())
-            ksp.setOptionsPrefix(old.getOptionsPrefix())
-            self._push_options()
-            ksp.setFromOptions()
-            self.snes.setKSP(ksp)
-            old.destroy()
-            log.debug("linear solver re-created after a PETSc error")
-        except Exception as err:          # pragma: no cover - best effort
-            log.warning("could not re-create the linear solver: %s", _first_line(err))
 
     def commit(self) -> None:
         """Accept the current state as converged (update history variables)."""
@@ -1035,36 +554,3 @@ class PlasticityProblem:
         val = fem.assemble_scalar(self._internal_force_forms[key][1])
         return float(self.comm.allreduce(val))
 
-    def elastic_solve_time(self, repeat: int = 3) -> float:
-        """Wall time of one linear elastic solve with this problem's linear solver (assemble the
-        elastic stiffness, set up the preconditioner - numeric LU factorisation or AMG hierarchy -,
-        solve; the symbolic factorisation is reused, as in Newton), the reference for the cost of a
-        plastic Newton iteration (best of ``repeat``)."""
-        self._compile()
-        nc = self.ncomp
-        saved = self.tangent.x.array.copy()
-        self._set_owned(self.tangent, self._elastic_tangent())
-        b = compat.create_vector(self._F_form)
-        b.set(1.0)
-        compat.set_bc(b, self.bcs)
-        y = b.duplicate()
-        ksp = PETSc.KSP().create(self.comm)
-        ksp.setOptionsPrefix(self.options_prefix)    # the Newton iteration's linear solver
-        self._push_options()
-        ksp.setFromOptions()
-        best = np.inf
-        for _ in range(repeat + 1):              # the first pass (symbolic factorisation) is warm-up
-            t0 = time.perf_counter()
-            self._A.zeroEntries()
-            fpetsc.assemble_matrix(self._A, self._J_form, self.bcs)
-            self._A.assemble()
-            if self._projection is not None:
-                self._projection.add_jacobian(self._A, self.bcs, self._owned(self.tangent, self.ncomp ** 2))
-            ksp.setOperators(self._A)
-            ksp.solve(b, y)
-            if _:
-                best = min(best, time.perf_counter() - t0)
-        dt = self.comm.allreduce(best, op=MPI.MAX)
-        ksp.destroy(); b.destroy(); y.destroy()
-        self.tangent.x.array[:] = saved
-        return dt

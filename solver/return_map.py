@@ -195,23 +195,36 @@ def return_map(material, sigma_n: np.ndarray, deps: np.ndarray, tangent: bool = 
         deps_p[apex] = s_tr[apex] / (2.0 * G) + ((p_apex - p_tr[apex]) / (3.0 * K))[:, None] * one
     dlam = np.where(apex, 0.0, dlam)
 
-    Ct = None
-    if tangent:
-        D = elastic_stiffness(material, ncomp)
-        Ct = np.broadcast_to(D, (n, ncomp, ncomp)).copy()
-        if np.any(smooth):
-            nn = ns[smooth]
-            a_g = 2.0 * G * SQ32 * nn + K * tpsi * one
-            a_f = 2.0 * G * SQ32 * nn + K * tphi * one
-            beta = np.zeros(nn.shape[0])
-            pos = snorm[smooth] > 0
-            beta[pos] = 2.0 * G * SQ32 * dlam[smooth][pos] * 2.0 * G / snorm[smooth][pos]
-            Pdev = deviatoric_projector(ncomp)
-            Ct[smooth] -= (np.einsum("pi,pj->pij", a_g, a_f) / H
-                           + beta[:, None, None] * (Pdev[None] - np.einsum("pi,pj->pij", nn, nn)))
-        if np.any(apex):
-            Ct[apex] = 0.0
+    Ct = _consistent_tangent(material, smooth, apex, ns, snorm, dlam) if tangent else None
     return ReturnResult(sigma=sigma, tangent=Ct, deps_p=deps_p, dlam=dlam, state=state)
+
+
+def _consistent_tangent(material, smooth: np.ndarray, apex: np.ndarray, ns: np.ndarray, snorm: np.ndarray,
+                        dlam: np.ndarray) -> np.ndarray:
+    """The consistent tangent (n, ncomp, ncomp) of :func:`return_map` for the Drucker-Prager
+    cone: elastic at the elastic points, zero at the apex, and on the smooth part of the cone
+    the elastic stiffness less the (non-associated) plastic part and the flow direction's
+    rotation (``ns``: unit deviatoric trial stresses, ``snorm`` their norms, ``dlam`` the
+    plastic multipliers)."""
+    n, ncomp = ns.shape
+    G, K = material.shear_modulus, material.bulk_modulus
+    tphi, tpsi = material.tan_phi, material.tan_psi
+    one = identity_vector(ncomp)
+    Ct = np.broadcast_to(elastic_stiffness(material, ncomp), (n, ncomp, ncomp)).copy()
+    if np.any(smooth):
+        nn = ns[smooth]
+        a_g = 2.0 * G * SQ32 * nn + K * tpsi * one
+        a_f = 2.0 * G * SQ32 * nn + K * tphi * one
+        beta = np.zeros(nn.shape[0])
+        pos = snorm[smooth] > 0
+        beta[pos] = 2.0 * G * SQ32 * dlam[smooth][pos] * 2.0 * G / snorm[smooth][pos]
+        Pdev = deviatoric_projector(ncomp)
+        H = 3.0 * G + K * tphi * tpsi
+        Ct[smooth] -= (np.einsum("pi,pj->pij", a_g, a_f) / H
+                       + beta[:, None, None] * (Pdev[None] - np.einsum("pi,pj->pij", nn, nn)))
+    if np.any(apex):
+        Ct[apex] = 0.0
+    return Ct
 
 
 def duvaut_lions(res: ReturnResult, sigma_trial: np.ndarray, D: np.ndarray, relaxation: float,

@@ -211,6 +211,32 @@ def settle_under_gravity(problem, unit_weight: float, K0=None) -> None:
     problem.reset_displacement()
 
 
+def _check_limits(problem, set_load, control: StepControl, t: float, history: list, its_total: int,
+                  wall: float) -> None:
+    """Before a step at ``t``: raise when a signal asked to stop (:class:`RunInterrupted`) or a
+    limit of ``control`` is reached (steps, wall time, Newton iterations: :class:`SolverDivergedError`),
+    with the last converged state (the load set back to ``t``).  Every rank decides alike."""
+    comm = getattr(problem, "comm", None)
+    if len(history) >= control.max_steps:
+        raise SolverDivergedError(f"max_steps={control.max_steps} reached at t={t:g}",
+                                  _snapshot(problem, t), history, kind="step_limit")
+    if comm is not None:
+        wall = comm.allreduce(wall, op=_mpi_max())     # all ranks take the same decision
+    stop = _interrupt_signal(comm)
+    if stop is not None:
+        set_load(t)
+        raise RunInterrupted(f"interrupted by {stop} at t={t:g} after {len(history)} steps; last converged "
+                             "state kept", _snapshot(problem, t), history, stop)
+    if wall > control.max_wall_time or its_total >= control.max_iterations:
+        set_load(t)
+        what = (f"wall-clock limit max_wall_time={control.max_wall_time:g} s"
+                if wall > control.max_wall_time else f"max_iterations={control.max_iterations}")
+        raise SolverDivergedError(
+            f"{what} reached at t={t:g} after {len(history)} steps ({its_total} Newton iterations, "
+            f"{wall:.1f} s); last converged state kept", _snapshot(problem, t), history,
+            kind="wall_time_guard" if wall > control.max_wall_time else "iteration_guard")
+
+
 def solve_load_path(problem, set_load: Callable[[float], None], control: StepControl = StepControl(),
                     on_step: Callable[[float], dict | None] | None = None, t_start: float = 0.0
                     ) -> list[StepRecord]:
@@ -229,27 +255,8 @@ def solve_load_path(problem, set_load: Callable[[float], None], control: StepCon
     its_total = 0
     u_prev, dt_prev = None, None        # previous converged displacement and its step (predictor)
     dt_cap, cap_left = math.inf, 0      # failure memory
-    comm = getattr(problem, "comm", None)
     while t < control.t_end * (1 - 1e-12):
-        if len(history) >= control.max_steps:
-            raise SolverDivergedError(f"max_steps={control.max_steps} reached at t={t:g}",
-                                      _snapshot(problem, t), history, kind="step_limit")
-        wall = time.perf_counter() - t_wall0
-        if comm is not None:
-            wall = comm.allreduce(wall, op=_mpi_max())     # all ranks take the same decision
-        stop = _interrupt_signal(comm)
-        if stop is not None:
-            set_load(t)
-            raise RunInterrupted(f"interrupted by {stop} at t={t:g} after {len(history)} steps; last converged "
-                                 "state kept", _snapshot(problem, t), history, stop)
-        if wall > control.max_wall_time or its_total >= control.max_iterations:
-            set_load(t)
-            what = (f"wall-clock limit max_wall_time={control.max_wall_time:g} s"
-                    if wall > control.max_wall_time else f"max_iterations={control.max_iterations}")
-            raise SolverDivergedError(
-                f"{what} reached at t={t:g} after {len(history)} steps ({its_total} Newton iterations, "
-                f"{wall:.1f} s); last converged state kept", _snapshot(problem, t), history,
-                kind="wall_time_guard" if wall > control.max_wall_time else "iteration_guard")
+        _check_limits(problem, set_load, control, t, history, its_total, time.perf_counter() - t_wall0)
         dt = min(dt, dt_cap if cap_left > 0 else math.inf, control.t_end - t)
         set_load(t + dt)
         predicted = control.predictor in ("extrapolate", "auto") and u_prev is not None

@@ -120,3 +120,14 @@ def test_dependencies_flow_one_way(graph):
     wrong = [f"{a} -> {b}" for a, targets in graph.items() for b in sorted(targets)
              if LAYERS.index(_layer(b)) > LAYERS.index(_layer(a))]
     assert not wrong, "imports from a higher layer: " + "; ".join(wrong)
+
+
+def test_no_solver_function_is_longer_than_80_lines():
+    """A long function in ``solver/`` is split into named steps (``_init_*`` methods, helpers)."""
+    long = []
+    for path in sorted((ROOT / "solver").rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)) and node.end_lineno - node.lineno >= 80:
+                long.append(f"{path.relative_to(ROOT)}:{node.lineno} {node.name} "
+                            f"({node.end_lineno - node.lineno + 1} lines)")
+    assert not long, long

@@ -11,7 +11,7 @@ from dolfinx.fem import petsc as fpetsc
 
 from rollsim.geometry import MeshOptions, PlaneStrainBlock, build_plane_strain_block
 from rollsim.solver import DruckerPrager, PlasticityProblem, VonMises
-from rollsim.solver import problem as problem_module
+from rollsim.solver import linear_solver as linear_solver_module
 from rollsim.solver.contact import Circle
 from rollsim.solver.indentation import WheelIndentation
 from rollsim.solver.problem import rigid_body_modes
@@ -71,7 +71,7 @@ def test_auto_chooses_by_problem_size(comm, monkeypatch):
     msh = dmesh.create_unit_square(comm, 2, 2)
     mat = VonMises(E=1e7, nu=0.3, yield_stress=1e6)
     assert PlasticityProblem(msh, mat).linear_solver == "direct"
-    monkeypatch.setattr(problem_module, "AUTO_ITERATIVE_DOFS", 10)
+    monkeypatch.setattr(linear_solver_module, "AUTO_ITERATIVE_DOFS", 10)
     pb = PlasticityProblem(msh, mat)
     assert pb.linear_solver == "iterative" and pb.petsc_options["pc_type"] == "gamg"
     assert PlasticityProblem(msh, mat, linear_solver="direct").linear_solver == "direct"
@@ -104,8 +104,8 @@ def test_auto_iterative_solver_gives_way_to_the_direct_one_where_it_fails(comm, 
     direct = _plane_strain_wheel(comm, "direct")
     direct.gravity_step()
     direct.push(0.01)
-    monkeypatch.setattr(problem_module, "AUTO_ITERATIVE_DOFS", 10)
-    monkeypatch.setattr(problem_module, "ITERATIVE_SOLVER_OPTIONS",        # an iterative solver that fails
+    monkeypatch.setattr(linear_solver_module, "AUTO_ITERATIVE_DOFS", 10)
+    monkeypatch.setattr(linear_solver_module, "ITERATIVE_SOLVER_OPTIONS",        # an iterative solver that fails
                         {"ksp_type": "gmres", "ksp_max_it": 2, "ksp_rtol": 1e-12, "pc_type": "jacobi"})
     auto = _plane_strain_wheel(comm, "auto")
     assert auto.problem.linear_solver == "iterative"
