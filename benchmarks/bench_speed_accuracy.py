@@ -177,11 +177,11 @@ def sweep(args) -> int:
 def scene_strain(scene: str, volumetric_strain: str | None) -> str:
     """The volumetric strain of a scene's runs: the one given, else its protocol's scene default on
     the fast preset (one strain for every level of a sweep)."""
-    from rollsim.solver.options import default_volumetric_strain
+    from rollsim.presets import PRESETS
     if scene == "tire-indentation":
-        return volumetric_strain or default_volumetric_strain("indentation", "fast", wheel="pneumatic")
-    return volumetric_strain or default_volumetric_strain(
-        "indentation" if scene.startswith("indentation") else "rolling-constant-load", "fast")
+        return volumetric_strain or PRESETS["fast"].volumetric_strain("indentation", wheel="pneumatic")
+    return volumetric_strain or PRESETS["fast"].volumetric_strain(
+        "indentation" if scene.startswith("indentation") else "rolling-constant-load")
 
 
 # ---------------------------------------------------------------------------------------------- report

@@ -12,13 +12,13 @@ from mpi4py import MPI
 
 from rollsim import compat
 from rollsim.log import get_logger
+from rollsim.presets import PRESETS
 
 log = get_logger("geometry")
 
-#: Accuracy presets -> ``refinement`` (elements per wheel diameter ``d`` in the refined zone).
-#: fast: fine size d/8, coarse 4d/8 (a few thousand cells); standard: d/20;
-#: accurate: d/50 = 0.02 d fine, 0.08 d coarse (the reference indentation mesh).
-ACCURACY_REFINEMENT: dict[str, float] = {"fast": 8.0, "standard": 20.0, "accurate": 50.0}
+#: Accuracy presets -> ``refinement`` (elements per wheel diameter ``d`` in the refined zone of a
+#: tetrahedral block), as :data:`rollsim.presets.PRESETS` sets them
+ACCURACY_REFINEMENT: dict[str, float] = {name: preset.elements_per_d for name, preset in PRESETS.items()}
 
 #: Coarse / fine element-size ratio used by ``MeshOptions.from_refinement`` (0.08 d / 0.02 d).
 COARSE_TO_FINE = 4.0

@@ -13,15 +13,13 @@ from dataclasses import dataclass
 
 from rollsim.files import read_toml
 from rollsim.log import get_logger
-from rollsim.solver.options import (ACCURACIES, ACCURACY_REFINEMENT, CELL_TYPES, DEFAULT_ACCURACY,
-                                    DEFAULT_ELEMENTS_ACROSS_WHEEL, DEFAULT_KINEMATICS, DEFAULT_ROLLING_METHOD,
-                                    DEFAULT_LINEAR_SOLVER, DEFAULT_MATCH, DEFAULT_REGULARISING_COHESION,
-                                    DEFAULT_RELAXATION_FALLBACK, DEFAULT_RELAXATION_LENGTH,
-                                    DEFAULT_TRAVEL_RELAXATION_FALLBACK,
-                                    DEFAULT_VOLUMETRIC_STRAIN, KINEMATICS,
-                                    LINEAR_SOLVERS, MATCHES, PLATEAU_RTOL, PROTOCOLS, ROLLING_HEXAHEDRA,
-                                    ROLLING_METHODS, STEADY_ELEMENTS_PER_D,
-                                    VOLUMETRIC_STRAINS, default_cell_type, default_volumetric_strain)
+from rollsim.presets import Preset, resolve_preset
+from rollsim.solver.options import (ACCURACIES, CELL_TYPES, DEFAULT_ACCURACY, DEFAULT_KINEMATICS,
+                                    DEFAULT_ROLLING_METHOD, DEFAULT_LINEAR_SOLVER, DEFAULT_MATCH,
+                                    DEFAULT_REGULARISING_COHESION, DEFAULT_RELAXATION_FALLBACK,
+                                    DEFAULT_RELAXATION_LENGTH, DEFAULT_TRAVEL_RELAXATION_FALLBACK,
+                                    DEFAULT_VOLUMETRIC_STRAIN, KINEMATICS, LINEAR_SOLVERS, MATCHES,
+                                    PLATEAU_RTOL, PROTOCOLS, ROLLING_METHODS, VOLUMETRIC_STRAINS)
 from rollsim.units import (ANGLE, DIMENSIONLESS, FORCE, LENGTH, PRESSURE, UNIT_WEIGHT, InputError, Kind,
                            to_si)
 
@@ -91,7 +89,7 @@ class ModelSpec:
     elements_along_path: float | None = None   # hexahedra: per d along the path in the strip; None: no finer along
     kinematics: str = DEFAULT_KINEMATICS
     linear_solver: str = DEFAULT_LINEAR_SOLVER
-    volumetric_strain: str = DEFAULT_VOLUMETRIC_STRAIN   # parse_scene: default_volumetric_strain(protocol, ...)
+    volumetric_strain: str = DEFAULT_VOLUMETRIC_STRAIN   # parse_scene: the preset's for the protocol
     relaxation_length: float = DEFAULT_RELAXATION_LENGTH   # m of the wheel's path; > 0: Duvaut-Lions
     relaxation_fallback: float = DEFAULT_RELAXATION_FALLBACK   # m; a failed vertical move relaxed; 0: off
     travel_relaxation_fallback: float = DEFAULT_TRAVEL_RELAXATION_FALLBACK   # m; a failed roll restarts relaxed
@@ -100,17 +98,22 @@ class ModelSpec:
     rolling: str = DEFAULT_ROLLING_METHOD   # a rigid wheel's rolling: "transient" or "steady"
 
     @property
+    def preset(self) -> Preset:
+        """What ``accuracy`` sets, with ``refinement`` in place of its element sizes
+        (:func:`rollsim.presets.resolve_preset`)."""
+        return resolve_preset(self.accuracy, self.refinement)
+
+    @property
     def elements_per_d(self) -> float:
         """Elements per wheel diameter in the refined zone (along the path on a hexahedral rolling
         block; at the contact of a steady window): ``refinement`` if given, else the ``accuracy``
         preset's."""
-        if self.refinement is not None:
-            return self.refinement
+        preset = self.preset
         if self.rolling == "steady":
-            return STEADY_ELEMENTS_PER_D[self.accuracy]
+            return preset.steady_elements_per_d
         if self.cell_type == "hexahedra":
-            return ROLLING_HEXAHEDRA[self.accuracy][0]
-        return ACCURACY_REFINEMENT[self.accuracy]
+            return preset.hexahedra[0]
+        return preset.elements_per_d
 
     @property
     def mesh_name(self) -> str:
@@ -345,14 +348,12 @@ def _loading(t: _Table, wheel: WheelSpec, steady: bool = False) -> LoadingSpec:
     return LoadingSpec(**spec)
 
 
-def _rolling_cells(t: _Table, wheel: WheelSpec, loading: LoadingSpec, accuracy: str,
-                   refinement: float | None) -> tuple[str | None, float | None, float | None]:
+def _rolling_cells(t: _Table, wheel: WheelSpec, loading: LoadingSpec,
+                   preset: Preset) -> tuple[str | None, float | None, float | None]:
     """``[model] cell_type``, ``elements_across_wheel`` and ``elements_along_path``: (cell type,
     elements across the wheel's width, elements per d along the path), None where they do not
-    apply.  Hexahedra apply to rolling a rigid wheel, by default on the ``standard`` and
-    ``accurate`` presets (``default_cell_type``); across the wheel and along the path they default
-    to the preset's counts (``ROLLING_HEXAHEDRA``), or with a ``refinement`` to
-    ``DEFAULT_ELEMENTS_ACROSS_WHEEL`` across and the refinement along."""
+    apply.  Hexahedra apply to rolling a rigid wheel; the cell type and the counts default to the
+    ``preset``'s (:class:`rollsim.presets.Preset`: ``rolling_cell_type``, ``hexahedra``)."""
     keys = ("cell_type", "elements_across_wheel", "elements_along_path")
     if wheel.type != "rigid" or not loading.protocol.startswith("rolling"):
         for key in keys:
@@ -360,7 +361,7 @@ def _rolling_cells(t: _Table, wheel: WheelSpec, loading: LoadingSpec, accuracy: 
                 raise InputError(t.key(key), "applies to rolling a rigid wheel (indentation blocks are tetrahedral, "
                                  "a pneumatic wheel's hexahedral)")
         return None, None, None
-    cell_type = t.choice("cell_type", CELL_TYPES, default=default_cell_type(accuracy, refinement))
+    cell_type = t.choice("cell_type", CELL_TYPES, default=preset.rolling_cell_type)
     across = t.quantity("elements_across_wheel", DIMENSIONLESS, default=None, positive=True)
     along = t.quantity("elements_along_path", DIMENSIONLESS, default=None, positive=True)
     if cell_type != "hexahedra":
@@ -368,15 +369,11 @@ def _rolling_cells(t: _Table, wheel: WheelSpec, loading: LoadingSpec, accuracy: 
             if value is not None:
                 raise InputError(t.key(key), 'needs cell_type = "hexahedra" (tetrahedral element sizes are isotropic)')
         return cell_type, None, None
-    per_d = refinement if refinement is not None else ROLLING_HEXAHEDRA[accuracy][0]
+    per_d, default_across, default_along = preset.hexahedra
     if along is not None and along < per_d:
         raise InputError(t.key("elements_along_path"), f"must be at least the elements per d ({per_d:g}): the "
                          "strip is refined along the path, never coarsened")
-    if across is None:
-        across = DEFAULT_ELEMENTS_ACROSS_WHEEL if refinement is not None else ROLLING_HEXAHEDRA[accuracy][1]
-    if along is None:
-        along = refinement if refinement is not None else ROLLING_HEXAHEDRA[accuracy][2]
-    return cell_type, across, along
+    return cell_type, default_across if across is None else across, default_along if along is None else along
 
 
 #: the [model] keys of the transient rolling block and solver that a steady window does not use
@@ -424,13 +421,14 @@ def parse_scene(data: dict) -> Scene:
     rolling = _rolling_method(model_table, wheel, soil, loading)
     accuracy = model_table.choice("accuracy", ACCURACIES, default=DEFAULT_ACCURACY)
     refinement = model_table.quantity("refinement", DIMENSIONLESS, default=None)
-    strain = default_volumetric_strain(loading.protocol, accuracy, refinement, wheel.type)
+    preset = resolve_preset(accuracy, refinement)
+    strain = preset.volumetric_strain(loading.protocol, wheel.type)
     cell_type, across, along = (None, None, None) if rolling == "steady" else \
-        _rolling_cells(model_table, wheel, loading, accuracy, refinement)
+        _rolling_cells(model_table, wheel, loading, preset)
     model = ModelSpec(accuracy=accuracy, refinement=refinement, cell_type=cell_type, elements_across_wheel=across,
                       elements_along_path=along,
                       kinematics=model_table.choice("kinematics", KINEMATICS, default=DEFAULT_KINEMATICS),
-                      linear_solver=model_table.choice("linear_solver", LINEAR_SOLVERS, default=DEFAULT_LINEAR_SOLVER),
+                      linear_solver=model_table.choice("linear_solver", LINEAR_SOLVERS, default=preset.linear_solver),
                       volumetric_strain=model_table.choice("volumetric_strain", VOLUMETRIC_STRAINS, default=strain),
                       relaxation_length=model_table.quantity("relaxation_length", LENGTH,
                                                              default=DEFAULT_RELAXATION_LENGTH, minimum=0.0),

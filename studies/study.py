@@ -54,7 +54,7 @@ from rollsim.files import atomic_write_text, complete_directory, read_text, read
 from rollsim.log import get_logger
 from rollsim.mpi import root_block
 from rollsim.scene import Scene, parse_scene
-from rollsim.solver.options import ACCURACY_REFINEMENT
+from rollsim.presets import PRESETS
 from rollsim.units import FORCE, InputError, to_si
 
 log = get_logger("study")
@@ -72,7 +72,7 @@ def _cost_hint(protocol: str, accuracy: str, refinement: float | None) -> str:
     fast preset's cost."""
     if refinement is None:
         return FE_COST_HINT[protocol, accuracy]
-    ratio = (refinement / ACCURACY_REFINEMENT["fast"]) ** COST_EXPONENT
+    ratio = (refinement / PRESETS["fast"].elements_per_d) ** COST_EXPONENT
     return f"about {ratio:.2g}x the fast preset's {FE_COST_HINT[protocol, 'fast']}"
 
 

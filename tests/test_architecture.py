@@ -1,7 +1,7 @@
 """The package's import graph: no cycles, and dependencies flow one way.
 
 Layers, lowest first: the base modules (``rollsim.log``, ``compat``, ``files``, ``mpi``, ``units``,
-``render``) < ``rollsim.geometry`` < ``rollsim.solver`` < the input layer (``rollsim.scene``) <
+``render``, ``presets``) < ``rollsim.geometry`` < ``rollsim.solver`` < the input layer (``rollsim.scene``) <
 ``rollsim.studies`` < ``rollsim.cli``.  A module may import its own layer and the layers below.
 Every ``import`` statement counts, including those inside functions.
 """
@@ -16,7 +16,7 @@ ROOT = pathlib.Path(__file__).resolve().parents[1]
 PARTS = {"rollsim": "rollsim", "rollsim.geometry": "geometry", "rollsim.solver": "solver",
          "rollsim.studies": "studies"}
 BASE = {"rollsim", "rollsim.log", "rollsim.compat", "rollsim.files", "rollsim.mpi",
-        "rollsim.units", "rollsim.render"}
+        "rollsim.units", "rollsim.render", "rollsim.presets"}
 LAYERS = ["base", "geometry", "solver", "input", "studies", "cli"]
 
 

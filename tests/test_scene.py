@@ -300,3 +300,29 @@ def test_known_key_that_does_not_apply_is_named_as_such(path, value, context):
     assert err.value.field == path
     with pytest.raises(InputError, match="unknown key"):
         parse_scene(with_change(path.rsplit(".", 1)[0] + ".colour", "red"))
+
+
+def test_a_preset_is_one_record_that_the_scene_resolves():
+    """What a preset sets lives in rollsim.presets alone: the geometry's element sizes and the
+    solver's choices are read from it, and a scene's ``model.preset`` is the record resolved with
+    its refinement (which replaces every element size and rolls on tetrahedra)."""
+    from rollsim.geometry.mesh import ACCURACY_REFINEMENT
+    from rollsim.presets import PRESETS, resolve_preset
+    from rollsim.solver.options import ACCURACIES, DEFAULT_ACCURACY
+    assert ACCURACY_REFINEMENT == {name: p.elements_per_d for name, p in PRESETS.items()}
+    assert ACCURACIES == tuple(PRESETS) and DEFAULT_ACCURACY in PRESETS
+    refined = resolve_preset("standard", 11.0)
+    assert (refined.elements_per_d, refined.steady_elements_per_d, refined.hexahedra[0], refined.hexahedra[2]) \
+        == (11.0, 11.0, 11.0, 11.0)
+    assert refined.rolling_cell_type == "tetrahedra" and refined.rolling_volumetric_strain == "cell-average"
+    assert resolve_preset("standard", 8.0).rolling_volumetric_strain == "pointwise"
+    with pytest.raises(ValueError, match="accuracy must be one of"):
+        resolve_preset("coarse")
+    data = {"wheel": {"diameter": "1 m", "width": "0.3 m"},
+            "soil": {"gamma": "20 kN/m^3", "layers": [{"model": "von-mises", "E": "40 MPa", "nu": 0.3, "c": "100 kPa"}]},
+            "loading": {"protocol": "rolling-constant-load", "load": "50 kN", "travel": "1 m"},
+            "model": {"accuracy": "accurate"}}
+    model = parse_scene(data).model
+    assert model.preset is PRESETS["accurate"] and model.elements_per_d == PRESETS["accurate"].hexahedra[0]
+    data["model"]["rolling"] = "steady"
+    assert parse_scene(data).model.elements_per_d == PRESETS["accurate"].steady_elements_per_d
