@@ -61,6 +61,16 @@ E, NU, C, B, GAMMA = 50e6, 0.3, 100e3, 1.0, 18e3
 DEG = math.pi / 180
 
 
+def _start(ap: argparse.ArgumentParser, argv: list[str] | None):
+    """A problem's options (``-v``: the solver's log), the communicator, a print on rank 0 and the
+    mesh levels (``--quick``: up to n = 8)."""
+    args = ap.parse_args(argv)
+    comm = MPI.COMM_WORLD
+    setup_logging(comm, verbose=args.verbose, quiet=not args.verbose)
+    say = print if comm.rank == 0 else (lambda *a, **k: None)
+    return args, comm, say, ((2, 4, 8) if args.quick else (2, 4, 8, 16))
+
+
 def run(comm, material, n, settlement, degree=2, unit_weight=0.0, K0=None, control=None,
         volumetric_strain=DEFAULT_VOLUMETRIC_STRAIN, diagonal="crossed", cell="triangle", projection=None):
     t0 = time.perf_counter()
@@ -88,11 +98,7 @@ def prandtl(argv: list[str] | None = None) -> int:
     ap.add_argument("--quick", action="store_true", help="meshes up to n = 8 only")
     add_volumetric_strain(ap, help="of the tables; the locking comparison runs both")
     ap.add_argument("-v", "--verbose", action="store_true")
-    args = ap.parse_args(argv)
-    comm = MPI.COMM_WORLD
-    setup_logging(comm, verbose=args.verbose, quiet=not args.verbose)
-    say = print if comm.rank == 0 else (lambda *a, **k: None)
-    ns = (2, 4, 8) if args.quick else (2, 4, 8, 16)
+    args, comm, say, ns = _start(ap, argv)
     out = {"ranks": comm.size, "E": E, "nu": NU, "c": C, "B": B, "volumetric_strain": args.volumetric_strain,
            "cases": {}}
     vs = args.volumetric_strain
@@ -212,11 +218,7 @@ def frictional(argv: list[str] | None = None) -> int:
     ap.add_argument("--before", action="store_true")
     ap.add_argument("--cases", nargs="+", type=int, choices=[1, 2, 3, 4], default=[1, 2, 3, 4])
     ap.add_argument("-v", "--verbose", action="store_true")
-    args = ap.parse_args(argv)
-    comm = MPI.COMM_WORLD
-    setup_logging(comm, verbose=args.verbose, quiet=not args.verbose)
-    say = print if comm.rank == 0 else (lambda *a, **k: None)
-    ns = (2, 4, 8) if args.quick else (2, 4, 8, 16)
+    args, comm, say, ns = _start(ap, argv)
     out = {"ranks": comm.size, "cases": {}}
 
     if 1 in args.cases:
