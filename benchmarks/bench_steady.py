@@ -1,4 +1,4 @@
-"""Steady rolling (rollsim.solver.steady), three problems:
+"""Steady rolling (rollsim.solver.steady), four problems:
 
 ``hertz``: against transient rolling on the same elements, plane strain, a Hertz line pressure
 (half-width a = 1 m) on von Mises soil (E = 1000 Pa, nu = 0.3, k = 1 Pa).  The steady solve in its
@@ -24,10 +24,18 @@ up (halved where Newton fails) to each of ``--sinkage``: Q_V per metre, the high
 surface ahead of the wheel, the surface's forward displacement at the rear face, the largest
 accumulated plastic strain and its depth, the contact's extent along the centre line.
 
+``wheel``: the frictionless Mn/DOT cylinder held at each ``--sinkage`` over ``--soil`` without
+gravity, plane strain: the steady state in its window (0.4 d ahead, 0.6 d behind, 0.4 d deep,
+cells of 0.1524 m / ``--cells-per-half-width`` at the contact) against the cylinder rolled at the
+same axle height over a block of the same cells (the window with its fine zone stretched by
+``--travel``; faces and base held), in travel steps of ``--step`` cells: Q_V and Q_H per metre
+and the highest heave ahead of the wheel, the transient's every ``--every`` m of travel.
+
     python -m benchmarks steady hertz [--p0 3.6 4.5] [--cells-per-half-width 4]
         [--travel 14] [--step 0.0625] [--distance 5] [--out bench_steady.json]
     mpirun -n 2 python -m benchmarks steady ranks [--cells-per-half-width 2] [--sinkage 2.5 5]
     python -m benchmarks steady towed [--soil clay] [--sinkage 2 3 4] [--cells-per-half-width 4]
+    python -m benchmarks steady wheel [--soil case5] [--sinkage 4 6] [--travel 4] [--cells-per-half-width 4]
 """
 from __future__ import annotations
 
@@ -67,8 +75,16 @@ def main() -> int:
     towed.add_argument("--soil", choices=sorted(TOWED_SOILS), default="clay")
     towed.add_argument("--sinkage", type=float, nargs="+", default=[2.0, 3.0, 4.0], help="mm, in turn")
     towed.add_argument("--cells-per-half-width", type=int, default=4, help="cells per 0.06 m")
+    wheel = sub.add_parser("wheel", help="plane strain, towed cylinder: the steady state against the transient roll")
+    wheel.add_argument("--soil", choices=sorted(TOWED_SOILS), default="case5")
+    wheel.add_argument("--sinkage", type=float, nargs="+", default=[4.0, 6.0], help="mm, each its own run")
+    wheel.add_argument("--travel", type=float, default=4.0, help="the transient roll's travel, m")
+    wheel.add_argument("--step", type=float, default=0.25, help="the transient roll's travel step, in cells")
+    wheel.add_argument("--every", type=float, default=0.5, help="m of travel between the transient's rows")
+    wheel.add_argument("--cells-per-half-width", type=int, default=4, help="cells per 0.1524 m")
     args = ap.parse_args()
-    run = {"hertz": hertz_against_transient, "ranks": distributed_against_serial, "towed": towed_surface_layer}
+    run = {"hertz": hertz_against_transient, "ranks": distributed_against_serial, "towed": towed_surface_layer,
+           "wheel": steady_against_transient}
     return run[args.problem](args)
 
 
@@ -111,6 +127,83 @@ def towed_surface_layer(args) -> int:
                   f"{1e3 * touching.min():+.0f} to {1e3 * touching.max():+.0f}  {time.perf_counter() - t0:8.1f}",
                   flush=True)
     return 0
+
+
+def steady_against_transient(args) -> int:
+    """The ``wheel`` problem (module docstring)."""
+    from rollsim.solver.contact import Circle
+    soil, R = TOWED_SOILS[args.soil], 0.762
+    window = RollingWindow(half_width=0.1524, ahead=0.61, behind=0.914, depth=0.61,
+                           cells_per_half_width=args.cells_per_half_width)
+    print(f"{'s (mm)':>6} {'run':<22} {'Q_V (kN/m)':>10} {'Q_H (kN/m)':>10} {'heave ahead (mm)':>16} {'time (s)':>8}")
+    for sinkage in np.array(args.sinkage) * 1e-3:
+        t0 = time.perf_counter()
+        st = SteadyRolling(rolling_window_mesh(MPI.COMM_SELF, window), soil, wheel=Circle(diameter=2 * R))
+        for s in np.append(np.arange(5e-4, sinkage, 5e-4), sinkage):
+            res = st.solve_sinkage(float(s))
+        x, u = st.surface_displacement()
+        print(f"{1e3 * sinkage:6.2f} {'steady':<22} {res.vertical_force / 1e3:10.2f} {res.towing_force / 1e3:10.3f} "
+              f"{1e3 * u[x > 0, 1].max():16.2f} {time.perf_counter() - t0:8.1f}", flush=True)
+        t0 = time.perf_counter()
+        rows = transient_roll(window, soil, R, sinkage, args.travel, args.step)
+        wall = time.perf_counter() - t0
+        travel = np.array([row["travel"] for row in rows])
+        marks = np.arange(args.every, travel[-1] + 1e-9, args.every)
+        shown = sorted(set(np.searchsorted(travel, marks - 1e-9).tolist()) | {len(rows) - 1})
+        for i in shown:
+            row = rows[i]
+            print(f"{1e3 * sinkage:6.2f} {'transient, ' + format(row['travel'], '.2f') + ' m':<22} "
+                  f"{row['QV'] / 1e3:10.2f} {row['QH'] / 1e3:10.3f} {1e3 * row['heave']:16.2f} "
+                  + (f"{wall:8.1f}" if i == len(rows) - 1 else ""), flush=True)
+    return 0
+
+
+def transient_roll(window: RollingWindow, soil, R: float, sinkage: float, travel: float,
+                   step: float) -> list[dict]:
+    """The reference of the ``wheel`` problem: a frictionless rigid cylinder (radius ``R``) pressed
+    to ``sinkage`` at x = 0 and rolled by ``travel`` (m, a whole number of cells) at that axle
+    height, in steps of ``step`` cells, over a block of ``window``'s cells; after each step the
+    travel (m), Q_V and Q_H (N/m) and the highest heave ahead of the wheel (m)."""
+    from dolfinx import fem
+    from dolfinx import mesh as dmesh
+    from rollsim.solver import PlasticityProblem, StepControl, solve_load_path
+    from rollsim.solver.contact import Circle, RigidWheelContact
+    h = window.cell_size
+    cells = int(round(travel / h))
+    xs = window.x_nodes()
+    xs = np.concatenate([xs[xs < -1e-9], np.arange(cells + 1) * h, xs[xs > 1e-9] + cells * h])
+    ys = window.y_nodes()
+    msh = dmesh.create_rectangle(MPI.COMM_SELF, [np.array([0.0, 0.0]), np.array([len(xs) - 1.0, len(ys) - 1.0])],
+                                 [len(xs) - 1, len(ys) - 1], dmesh.CellType.quadrilateral)
+    msh.geometry.x[:, 0] = np.interp(msh.geometry.x[:, 0], np.arange(len(xs)), xs)
+    msh.geometry.x[:, 1] = np.interp(msh.geometry.x[:, 1], np.arange(len(ys)), ys)
+    top = float(ys.max())
+    pb = PlasticityProblem(msh, soil)
+    held = dmesh.locate_entities_boundary(msh, 1, lambda p: np.isclose(p[0], xs[0]) | np.isclose(p[0], xs[-1])
+                                          | np.isclose(p[1], ys[0]))
+    pb.bcs = [fem.dirichletbc(fem.Function(pb.V), fem.locate_dofs_topological(pb.V, 1, held))]
+    surface = dmesh.locate_entities_boundary(msh, 1, lambda p: np.isclose(p[1], top))
+    tags = dmesh.meshtags(msh, 1, np.sort(surface), np.ones(len(surface), np.int32))
+    # the steady window's penalty: kappa from the smallest column spacing, the same facet rule
+    contact = RigidWheelContact(pb, Circle(2 * R), tags, (1,), quadrature_degree=12, h=float(np.diff(xs).min()),
+                                centre=[0.0, top + R])
+    solve_load_path(pb, lambda t: contact.set_pose(centre=[0.0, top + R - sinkage * t]),
+                    StepControl(dt=0.1, dt_max=0.1))
+    X = pb.V.tabulate_dof_coordinates()
+    on_top = np.isclose(X[:, 1], top)
+    rows = []
+
+    def record(t):
+        u = pb.u.x.array.reshape(-1, 2)[on_top]
+        forces = contact.forces()
+        rows.append({"travel": t, "QV": forces.vertical, "QH": forces.horizontal,
+                     "heave": float(u[X[on_top, 0] > t, 1].max())})
+
+    ds = step * h
+    solve_load_path(pb, lambda t: contact.set_pose(centre=[t, top + R - sinkage]),
+                    StepControl(t_end=cells * h, dt=ds, dt_max=ds, dt_min=ds / 64, easy_iterations=1000),
+                    on_step=record)
+    return rows
 
 
 def distributed_against_serial(args) -> int:
