@@ -61,7 +61,7 @@ from .materials import admissible_k0
 from .options import DEFAULT_VOLUMETRIC_STRAIN, VOLUMETRIC_STRAINS
 from .problem import mandel_strain
 from .return_map import elastic_stiffness, return_map
-from .steady_friction import SurfaceFriction, SurfaceRows
+from .steady_friction import DEFAULT_TANGENTIAL_RATIO, SurfaceFriction, SurfaceRows
 
 __all__ = ["RollingWindow", "rolling_window_mesh", "NewtonKrylovControl", "StreamlineState",
            "SteadyRollingResult", "HorizontalBalance", "SteadyRolling", "NoSteadyState", "DEFAULT_STEADY_OPTIONS"]
@@ -384,8 +384,8 @@ class SteadyRolling:
     Plane strain (a quadrilateral mesh): ``wheel`` is a :class:`~rollsim.solver.contact.Circle`,
     forces are per unit length (N/m).  3D (a hexahedral half window, y >= 0): ``wheel`` is a
     ``CylinderWheel`` (axle along y, centred on y = 0), no Hertz pressure; forces are the whole
-    wheel's (N: twice the half window's).  ``friction``: the Coulomb coefficient
-    (:mod:`rollsim.solver.steady_friction`).
+    wheel's (N: twice the half window's).  ``friction``: the Coulomb coefficient, with the stick
+    stiffness ``tangential_ratio`` times the normal penalty (:mod:`rollsim.solver.steady_friction`).
 
     The cylinder presses on the surface through the penalty law of
     :class:`~rollsim.solver.contact.RigidWheelContact`: ``p_N = kappa <-g>_+`` on the gap ``g``
@@ -405,7 +405,8 @@ class SteadyRolling:
     """
 
     def __init__(self, mesh, material, half_width: float | None = None, *, wheel: Circle | None = None,
-                 penalty: float = DEFAULT_PENALTY, friction: float = 0.0, degree: int = 2,
+                 penalty: float = DEFAULT_PENALTY, friction: float = 0.0,
+                 tangential_ratio: float = DEFAULT_TANGENTIAL_RATIO, degree: int = 2,
                  quadrature_degree: int | None = None, unit_weight: float = 0.0, K0: float | None = None,
                  control: NewtonKrylovControl | None = None, petsc_options: dict | None = None,
                  options_prefix: str = "rollsim_steady_", preconditioner: str = "tangent",
@@ -421,6 +422,10 @@ class SteadyRolling:
         #: the whole wheel's share of the modelled soil's forces (3D: a half window)
         self.symmetry = 1.0 if gdim == 2 else 2.0
         self.friction = float(friction)
+        if not (math.isfinite(tangential_ratio) and tangential_ratio > 0):
+            raise ValueError(f"tangential_ratio must be > 0, got {tangential_ratio!r}")
+        #: the friction's stick stiffness over the normal penalty (:mod:`rollsim.solver.steady_friction`)
+        self.tangential_ratio = float(tangential_ratio)
         #: the wheel's dimensionless spin ``xi = omega R / V`` (-; ``omega`` in the rolling sense, 1:
         #: rolling without slip on a rigid surface)
         self.spin = 1.0
@@ -720,7 +725,7 @@ class SteadyRolling:
         #: which of the rows' nodes this rank owns
         self._surface_owned = rows.nodes < self._owned_nodes
         self._surface_free = ~np.isin(dofs, self._fixed) & self._surface_owned[..., None]
-        return SurfaceFriction(rows, self.wheel, self.friction, self.kappa)
+        return SurfaceFriction(rows, self.wheel, self.friction, self.kappa, self.tangential_ratio)
 
     def _owned(self, forces: np.ndarray) -> np.ndarray:
         """The friction's nodal ``forces`` ((rows, stations, gdim)) on this rank's own nodes (zero on

@@ -11,7 +11,8 @@ surface by the difference of the two relative motions::
 (``du`` the difference of the nodes' displacements, ``P`` the point from the axle, ``xi = omega R
 / V`` the wheel's spin: 1 rolls without slip on a rigid surface).  The traction, kept as
 components in the wheel's tangent frame, takes the trial ``t_prev - k_T (dg . tau)`` and returns
-to ``|t| <= mu p_N`` (``p_N = kappa <-g>_+`` the penalty pressure at the node, ``k_T = kappa``).
+to ``|t| <= mu p_N`` (``p_N = kappa <-g>_+`` the penalty pressure at the node, ``k_T =
+tangential_ratio kappa``: the stick stiffness, :data:`DEFAULT_TANGENTIAL_RATIO`).
 Nodal forces use the nodal (Simpson) weights of quadratic Lagrange faces.
 """
 from __future__ import annotations
@@ -20,7 +21,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["SurfaceRows", "SurfaceFriction"]
+__all__ = ["SurfaceRows", "SurfaceFriction", "DEFAULT_TANGENTIAL_RATIO"]
+
+#: the stick stiffness over the normal penalty, ``k_T / kappa``.  Towed at its service load the
+#: Mn/DOT roller's stick-slip pattern defeats Newton with ``k_T = kappa``; a tenth of it rolls
+#: there and moves the forces little (see docs/limitations.md, "Steady rolling: how far it reaches").
+DEFAULT_TANGENTIAL_RATIO = 0.1
 
 
 def _simpson(x: np.ndarray) -> np.ndarray:
@@ -78,13 +84,18 @@ class SurfaceRows:
 
 
 class SurfaceFriction:
-    """Penalty-regularised Coulomb friction (coefficient ``mu``, stiffness ``kappa``, Pa/m) between
-    the surface ``rows`` and the rigid ``wheel`` (``Circle`` in plane strain, ``CylinderWheel``
-    in 3D with the axle along y).  :meth:`sweep` returns the nodal forces on the soil;
-    :meth:`tangent` their derivative at the state of the last sweep."""
+    """Penalty-regularised Coulomb friction (coefficient ``mu``, normal stiffness ``kappa``, Pa/m,
+    stick stiffness ``tangential_ratio kappa``) between the surface ``rows`` and the rigid
+    ``wheel`` (``Circle`` in plane strain, ``CylinderWheel`` in 3D with the axle along y).
+    :meth:`sweep` returns the nodal forces on the soil; :meth:`tangent` their derivative at the
+    state of the last sweep."""
 
-    def __init__(self, rows: SurfaceRows, wheel, mu: float, kappa: float):
+    def __init__(self, rows: SurfaceRows, wheel, mu: float, kappa: float,
+                 tangential_ratio: float = DEFAULT_TANGENTIAL_RATIO):
+        if not tangential_ratio > 0:
+            raise ValueError(f"tangential_ratio must be > 0, got {tangential_ratio!r}")
         self.rows, self.wheel, self.mu, self.kappa = rows, wheel, float(mu), float(kappa)
+        self.k_t = float(tangential_ratio) * self.kappa
         self.gdim = rows.gdim
         self.radius = wheel.diameter / 2
         self._dx = np.diff(rows.x, prepend=rows.x[:1])                  # (stations,), <= 0
@@ -157,7 +168,7 @@ class SurfaceFriction:
         stick = np.zeros(s.shape[:-1], dtype=bool)
         prev = np.zeros_like(s[:, 0])
         for j in range(s.shape[1]):
-            trial = prev - self.kappa * s[:, j]
+            trial = prev - self.k_t * s[:, j]
             size = np.linalg.norm(trial, axis=-1)
             limit = self.mu * pN[:, j]
             stick[:, j] = size <= limit
@@ -185,7 +196,7 @@ class SurfaceFriction:
         dt = np.zeros_like(ds)
         prev = np.zeros_like(ds[:, 0])
         for j in range(ds.shape[1]):
-            dtrial = prev - self.kappa * ds[:, j]
+            dtrial = prev - self.k_t * ds[:, j]
             q, scale = st["direction"][:, j], st["scale"][:, j, None]
             # sliding: t = mu p_N q, q = trial / |trial|
             slide = self.mu * dpN[:, j, None] * q + scale * (dtrial - q * np.sum(q * dtrial, axis=-1, keepdims=True))

@@ -22,7 +22,7 @@ from rollsim.solver.problem import PlasticityProblem, mandel_strain
 from rollsim.solver.return_map import elastic_stiffness, invariants
 from rollsim.solver.stepping import StepControl, solve_load_path
 from rollsim.solver.steady import (NoSteadyState, RollingWindow, SteadyRolling, rolling_window_mesh)
-from rollsim.solver.steady_friction import SurfaceFriction, SurfaceRows
+from rollsim.solver.steady_friction import DEFAULT_TANGENTIAL_RATIO, SurfaceFriction, SurfaceRows
 
 K = 1.0                                  # shear yield stress k (Pa)
 SOIL = VonMises(E=1000.0, nu=0.3, yield_stress=math.sqrt(3.0) * K)
@@ -437,7 +437,7 @@ def test_steady_rolling_is_partition_independent(comm):
             plane.solve_sinkage(sinkage)
         free = plane.solve_free_rolling(0.012)
         roller = SteadyRolling(rolling_window_mesh(cm, window_3d), CLAY_3D, wheel=ROLLER, friction=0.5,
-                               unit_weight=20e3)
+                               unit_weight=20e3, tangential_ratio=1.0)     # held at xi = 1: the full stick
         held = roller.solve_sinkage(0.0025)
         found[name] = (free, plane.horizontal_balance().towing_force, plane.surface_displacement()[1], held,
                        roller.horizontal_balance().towing_force)
@@ -680,7 +680,7 @@ def test_friction_tangent_is_the_derivative_of_its_sweep(gdim):
         X = np.column_stack([xs, np.zeros_like(xs)])
     rows = SurfaceRows.of(X, 0.0, 1e-9)
     assert rows.weights.sum() == pytest.approx(1.5 * (0.3 if gdim == 3 else 1.0), rel=1e-12)
-    friction = SurfaceFriction(rows, wheel, 0.5, 1e8)
+    friction = SurfaceFriction(rows, wheel, 0.3, 1e8, tangential_ratio=0.3)
     U = np.zeros(rows.nodes.shape + (gdim,))
     U[..., -1] = -0.01 * np.exp(-(rows.x / 0.25) ** 2) + 1e-5 * rng.normal(size=U.shape[:-1])
     U[..., 0] = 1e-4 * np.sin(rows.x * 7.0)
@@ -696,6 +696,29 @@ def test_friction_tangent_is_the_derivative_of_its_sweep(gdim):
     forward, backward = sweep(U + h * dU), sweep(U - h * dU)
     assert np.array_equal(friction._state["stick"], stick)          # no station changed its state
     assert np.abs((forward - backward) / (2 * h) - exact).max() <= 1e-5 * np.abs(exact).max()
+
+
+@pytest.mark.serial
+def test_stick_stiffness_regularises_the_friction_only():
+    """The friction's stick stiffness (``tangential_ratio`` of the normal penalty) is a
+    regularisation: the towed cylinder on the case-5 soil (plane strain, mu = 0.8, 4 mm) carries
+    the same Q_V and Q_H with a tenth of the penalty as with all of it (the elastic slip it allows
+    moves the free spin by less than 0.2 %, but moves it)."""
+    soil = DruckerPrager(E=40e6, nu=0.35, phi_dp=math.radians(27.5), c_dp=194.6e3)
+    window = RollingWindow(half_width=0.1524, ahead=0.61, behind=0.914, depth=0.61, cells_per_half_width=2)
+    found = {}
+    for ratio in (1.0, 0.1):
+        st = SteadyRolling(rolling_window_mesh(MPI.COMM_SELF, window), soil, wheel=Circle(diameter=1.524),
+                           friction=0.8, unit_weight=20e3, tangential_ratio=ratio)
+        st.solve_free_rolling(0.002)
+        found[ratio] = st.solve_free_rolling(0.004)
+    stiff, soft = found[1.0], found[0.1]
+    assert soft.vertical_force == pytest.approx(stiff.vertical_force, rel=2e-3)
+    assert soft.towing_force == pytest.approx(stiff.towing_force, rel=1e-2) and stiff.towing_force > 0
+    assert 1e-5 < abs(soft.spin - stiff.spin) < 2e-3 * stiff.spin
+    with pytest.raises(ValueError, match="tangential_ratio"):
+        SteadyRolling(rolling_window_mesh(MPI.COMM_SELF, window), soil, wheel=Circle(diameter=1.524), friction=0.8,
+                      tangential_ratio=0.0)
 
 
 def _slab_mesh(window: RollingWindow, width: float):
@@ -740,7 +763,7 @@ def test_3d_frictional_roller_rolls_free_on_elastic_soil():
                        unit_weight=20e3)
     held = st.solve_sinkage(0.0025)
     assert st.horizontal_balance().towing_force == pytest.approx(held.towing_force, rel=1e-6)
-    assert abs(held.towing_force) > 0.05 * held.vertical_force
+    assert abs(held.towing_force) > 0.02 * held.vertical_force
     free = st.solve_free_rolling(0.0025)
     assert abs(free.axle_torque) <= 1e-6 * ROLLER.diameter / 2 * free.vertical_force
     assert abs(free.towing_force) < 1e-3 * free.vertical_force and free.spin < 1.0
@@ -770,6 +793,7 @@ def test_steady_scene_runs_end_to_end(comm, tmp_mpi_path):
     assert summary["status"] == "ok", summary["reason"]
     assert summary["rolling"] == "steady" and summary["ranks"] == comm.size
     assert summary["model"]["window_m"]["ahead"] == pytest.approx(0.25 * 1.524)
+    assert summary["model"]["contact"]["tangential_ratio"] == DEFAULT_TANGENTIAL_RATIO
     assert summary["QV_N"] == pytest.approx(40e3, rel=1e-3)
     rows = list(csv.DictReader((tmp_mpi_path / "history.csv").open()))
     sinkages = [float(r["sinkage_m"]) for r in rows]

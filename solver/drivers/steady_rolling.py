@@ -193,7 +193,7 @@ def _summary(scene, steady: SteadyRolling, window: RollingWindow, rows, last, li
                          "cell_type": "hexahedron", "displacement_degree": 2, "kinematics": "small-strain",
                          "volumetric_strain": steady.volumetric_strain,
                          "contact": {"method": "penalty", "kappa_Pa_per_m": steady.kappa, "alpha": alpha,
-                                     "friction": steady.friction},
+                                     "friction": steady.friction, "tangential_ratio": steady.tangential_ratio},
                          "window_m": {"ahead": window.ahead, "behind": window.behind, "depth": window.depth,
                                       "across": window.across, "fine_cell": window.cell_size,
                                       "fine_half_length": window.fine_length}},
@@ -214,9 +214,9 @@ def _summary(scene, steady: SteadyRolling, window: RollingWindow, rows, last, li
         if forward > last.sinkage:
             summary.setdefault("warnings", []).append(
                 f"the surface leaves the window moved forward by {1e3 * forward:.3g} mm, "
-                f"{forward / last.sinkage:.2g} times the sinkage: the wheel shoves the soil ahead of it, which "
-                'the small-strain steady state does not describe (docs/limitations.md, "Steady rolling: how far it '
-                'reaches")')
+                f"{forward / last.sinkage:.2g} times the sinkage: the wheel shoves the soil ahead of it; in plane "
+                "strain a rolled wheel does not settle past this point (docs/limitations.md, \"Steady rolling: how "
+                'far it reaches")')
     if diagnostics:
         summary["diagnostics"] = diagnostics
     return summary
