@@ -1104,7 +1104,8 @@ class SteadyRolling:
         stepping the sinkage up), those.  Each solve starts from the converged state at the
         deepest sinkage short of it (stepping up keeps the contact), with its spin.  With
         ``free_rolling`` every sinkage is solved by :meth:`solve_free_rolling` (to ``torque_rtol``),
-        else at the current :attr:`spin`."""
+        else at the current :attr:`spin`; the displacement (and the spin) start on the secant of the
+        two deepest states short of the sinkage (:meth:`solve_sinkage`'s predictor)."""
         if not (math.isfinite(load) and load > 0):
             raise ValueError(f"load must be a positive force (N/m), got {load!r}")
         if not 0 < rtol < 1:
@@ -1124,6 +1125,8 @@ class SteadyRolling:
                 self._last_sinkage = max(shallower)
                 u, self.spin, _ = known[self._last_sinkage]
                 self.u.x.array[:] = u
+                # the predictor extrapolates from the two deepest states short of it
+                self._converged = [(s, known[s][0], known[s][1]) for s in sorted(shallower)[-2:]]
             elif self._last_sinkage is not None and self._last_sinkage > sinkage:
                 self.u.x.array[:], self._last_sinkage = 0.0, None
             result = solve(sinkage, inflow)
