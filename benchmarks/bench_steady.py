@@ -51,6 +51,7 @@ from mpi4py import MPI
 
 sys.path.insert(0, str(pathlib.Path(__file__).parents[1] / "tests"))
 from test_steady_rolling import (CLAY_3D, K, NEVER_YIELDS, ROLLER, SOIL, differences,  # noqa: E402
+                                 hold_faces_and_base, stretched_block,
                                  residual_part, steady, steady_behind, transient_behind)
 
 from _bench import dump_json  # noqa: E402
@@ -164,29 +165,19 @@ def transient_roll(window: RollingWindow, soil, R: float, sinkage: float, travel
     to ``sinkage`` at x = 0 and rolled by ``travel`` (m, a whole number of cells) at that axle
     height, in steps of ``step`` cells, over a block of ``window``'s cells; after each step the
     travel (m), Q_V and Q_H (N/m) and the highest heave ahead of the wheel (m)."""
-    from dolfinx import fem
     from dolfinx import mesh as dmesh
     from rollsim.solver import PlasticityProblem, StepControl, solve_load_path
     from rollsim.solver.contact import Circle, RigidWheelContact
-    h = window.cell_size
+    h = window.cell_size / 2 ** window.refinement
     cells = int(round(travel / h))
-    xs = window.x_nodes()
-    xs = np.concatenate([xs[xs < -1e-9], np.arange(cells + 1) * h, xs[xs > 1e-9] + cells * h])
-    ys = window.y_nodes()
-    msh = dmesh.create_rectangle(MPI.COMM_SELF, [np.array([0.0, 0.0]), np.array([len(xs) - 1.0, len(ys) - 1.0])],
-                                 [len(xs) - 1, len(ys) - 1], dmesh.CellType.quadrilateral)
-    msh.geometry.x[:, 0] = np.interp(msh.geometry.x[:, 0], np.arange(len(xs)), xs)
-    msh.geometry.x[:, 1] = np.interp(msh.geometry.x[:, 1], np.arange(len(ys)), ys)
-    top = float(ys.max())
-    pb = PlasticityProblem(msh, soil)
-    held = dmesh.locate_entities_boundary(msh, 1, lambda p: np.isclose(p[0], xs[0]) | np.isclose(p[0], xs[-1])
-                                          | np.isclose(p[1], ys[0]))
-    pb.bcs = [fem.dirichletbc(fem.Function(pb.V), fem.locate_dofs_topological(pb.V, 1, held))]
+    pb = PlasticityProblem(stretched_block(window, cells * h), soil)
+    msh = pb.mesh
+    hold_faces_and_base(pb)
+    top = float(msh.geometry.x[:, 1].max())
     surface = dmesh.locate_entities_boundary(msh, 1, lambda p: np.isclose(p[1], top))
     tags = dmesh.meshtags(msh, 1, np.sort(surface), np.ones(len(surface), np.int32))
-    # the steady window's penalty: kappa from the smallest column spacing, the same facet rule
-    contact = RigidWheelContact(pb, Circle(2 * R), tags, (1,), quadrature_degree=12, h=float(np.diff(xs).min()),
-                                centre=[0.0, top + R])
+    # the steady window's penalty: kappa from the smallest column spacing (the fine cells), the same facet rule
+    contact = RigidWheelContact(pb, Circle(2 * R), tags, (1,), quadrature_degree=12, h=h, centre=[0.0, top + R])
     solve_load_path(pb, lambda t: contact.set_pose(centre=[0.0, top + R - sinkage * t]),
                     StepControl(dt=0.1, dt_max=0.1))
     X = pb.V.tabulate_dof_coordinates()

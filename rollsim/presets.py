@@ -40,7 +40,7 @@ class Preset:
     ``steady_elements_per_d``: a steady window's elements per d at the contact;
     ``rolling_volumetric_strain``: the soil's strain when a rigid wheel rolls (indentation and
     the pneumatic tire take B-bar, ``"cell-average"``, on every preset); ``linear_solver``: of the
-    Newton iteration; ``refined``: the elements per d came from ``[model] refinement``."""
+    Newton iteration."""
 
     name: str
     elements_per_d: float
@@ -49,7 +49,6 @@ class Preset:
     steady_elements_per_d: float
     rolling_volumetric_strain: str
     linear_solver: str = "auto"
-    refined: bool = False
 
     def volumetric_strain(self, protocol: str, wheel: str = "rigid") -> str:
         """The soil's volumetric strain for a loading ``protocol`` and a ``wheel`` type."""
@@ -81,4 +80,4 @@ def resolve_preset(accuracy: str, refinement: float | None = None) -> Preset:
     return replace(base, elements_per_d=refinement, rolling_cell_type="tetrahedra",
                    hexahedra=(refinement, DEFAULT_ELEMENTS_ACROSS_WHEEL, refinement),
                    steady_elements_per_d=refinement,
-                   rolling_volumetric_strain="pointwise" if coarse else "cell-average", refined=True)
+                   rolling_volumetric_strain="pointwise" if coarse else "cell-average")

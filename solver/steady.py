@@ -342,7 +342,7 @@ class HorizontalBalance:
         return self.outflow_axial - self.inflow_axial + self.base_shear
 
 
-def _check_arguments(mesh, half_width, wheel, penalty, friction, preconditioner, unit_weight,
+def _check_arguments(mesh, half_width, wheel, penalty, friction, tangential_ratio, preconditioner, unit_weight,
                      volumetric_strain) -> None:
     """The arguments of :class:`SteadyRolling` that it refuses, with the reason."""
     gdim = mesh.geometry.dim
@@ -366,6 +366,8 @@ def _check_arguments(mesh, half_width, wheel, penalty, friction, preconditioner,
         raise ValueError(f"friction must be a Coulomb coefficient >= 0, got {friction!r}")
     if friction and wheel is None:
         raise ValueError("friction needs a rigid wheel (the Hertz pressure is frictionless)")
+    if not (math.isfinite(tangential_ratio) and tangential_ratio > 0):
+        raise ValueError(f"tangential_ratio must be > 0, got {tangential_ratio!r}")
     if preconditioner not in ("tangent", "elastic"):
         raise ValueError(f"preconditioner must be 'tangent' or 'elastic', got {preconditioner!r}")
     if not (math.isfinite(unit_weight) and unit_weight >= 0):
@@ -411,7 +413,7 @@ class SteadyRolling:
                  control: NewtonKrylovControl | None = None, petsc_options: dict | None = None,
                  options_prefix: str = "rollsim_steady_", preconditioner: str = "tangent",
                  volumetric_strain: str = DEFAULT_VOLUMETRIC_STRAIN):
-        _check_arguments(mesh, half_width, wheel, penalty, friction, preconditioner, unit_weight,
+        _check_arguments(mesh, half_width, wheel, penalty, friction, tangential_ratio, preconditioner, unit_weight,
                          volumetric_strain)
         self.volumetric_strain = volumetric_strain
         self.comm = mesh.comm
@@ -422,8 +424,6 @@ class SteadyRolling:
         #: the whole wheel's share of the modelled soil's forces (3D: a half window)
         self.symmetry = 1.0 if gdim == 2 else 2.0
         self.friction = float(friction)
-        if not (math.isfinite(tangential_ratio) and tangential_ratio > 0):
-            raise ValueError(f"tangential_ratio must be > 0, got {tangential_ratio!r}")
         #: the friction's stick stiffness over the normal penalty (:mod:`rollsim.solver.steady_friction`)
         self.tangential_ratio = float(tangential_ratio)
         #: the wheel's dimensionless spin ``xi = omega R / V`` (-; ``omega`` in the rolling sense, 1:

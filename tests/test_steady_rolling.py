@@ -121,17 +121,12 @@ def differences(steady_state: BehindTheLoad, transient: BehindTheLoad) -> dict[s
             "settlement": rel(steady_state.surface_displacement[1:], transient.surface_displacement[1:])}
 
 
-def transient_behind(window: RollingWindow, material, peak_pressure: float, travel: float, step: float,
-                     distance: float) -> BehindTheLoad:
-    """The independent reference: the Hertz line pressure of ``window`` (peak ``peak_pressure``)
-    set down at x = 0 and moved by ``travel`` (m) in steps of at most ``step`` (m) over a block of
-    the same cells (the window with its fine zone stretched by ``travel``; faces and base held),
-    solved incrementally with :class:`PlasticityProblem`; the state ``distance`` behind the load's
-    last position."""
-    t0 = time.perf_counter()
-    a, h = window.half_width, window.cell_size / 2 ** window.refinement
+def stretched_block(window: RollingWindow, travel: float):
+    """A transient reference's plane-strain block: the cells of ``window`` with its fine zone
+    stretched by ``travel`` (m, a whole number of fine cells) along x."""
+    h = window.cell_size / 2 ** window.refinement
     cells = int(round(travel / h))
-    if abs(cells * h - travel) > 1e-9 * a:
+    if abs(cells * h - travel) > 1e-9 * window.half_width:
         raise ValueError(f"travel {travel} must be a whole number of cells ({h} m)")
     xs = window.x_nodes()
     xs = np.concatenate([xs[xs < -1e-9], np.arange(cells + 1) * h, xs[xs > 1e-9] + travel])
@@ -140,11 +135,31 @@ def transient_behind(window: RollingWindow, material, peak_pressure: float, trav
                                  [len(xs) - 1, len(ys) - 1], dmesh.CellType.quadrilateral)
     msh.geometry.x[:, 0] = np.interp(msh.geometry.x[:, 0], np.arange(len(xs)), xs)
     msh.geometry.x[:, 1] = np.interp(msh.geometry.x[:, 1], np.arange(len(ys)), ys)
-    pb = PlasticityProblem(msh, material)
-    fdim = msh.topology.dim - 1
-    held = dmesh.locate_entities_boundary(msh, fdim, lambda p: np.isclose(p[0], xs[0]) | np.isclose(p[0], xs[-1])
-                                          | np.isclose(p[1], ys[0]))
+    return msh
+
+
+def hold_faces_and_base(pb: PlasticityProblem) -> None:
+    """Fix the displacement of ``pb``'s block on its end faces and its base."""
+    x = pb.mesh.geometry.x
+    (x0, y0), (x1, _) = x[:, :2].min(axis=0), x[:, :2].max(axis=0)
+    fdim = pb.mesh.topology.dim - 1
+    held = dmesh.locate_entities_boundary(pb.mesh, fdim, lambda p: np.isclose(p[0], x0) | np.isclose(p[0], x1)
+                                          | np.isclose(p[1], y0))
     pb.bcs = [fem.dirichletbc(fem.Function(pb.V), fem.locate_dofs_topological(pb.V, fdim, held))]
+
+
+def transient_behind(window: RollingWindow, material, peak_pressure: float, travel: float, step: float,
+                     distance: float) -> BehindTheLoad:
+    """The independent reference: the Hertz line pressure of ``window`` (peak ``peak_pressure``)
+    set down at x = 0 and moved by ``travel`` (m) in steps of at most ``step`` (m) over a block of
+    the same cells (the window with its fine zone stretched by ``travel``; faces and base held),
+    solved incrementally with :class:`PlasticityProblem`; the state ``distance`` behind the load's
+    last position."""
+    t0 = time.perf_counter()
+    a = window.half_width
+    pb = PlasticityProblem(stretched_block(window, travel), material)
+    msh, fdim = pb.mesh, pb.mesh.topology.dim - 1
+    hold_faces_and_base(pb)
     top = dmesh.locate_entities_boundary(msh, fdim, lambda p: np.isclose(p[1], 0.0))
     ds = ufl.Measure("ds", domain=msh, subdomain_data=dmesh.meshtags(msh, fdim, np.sort(top),
                                                                      np.ones(len(top), np.int32)))
