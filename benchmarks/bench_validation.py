@@ -28,12 +28,14 @@ Prints, per measured point, Q_V measured / FE / model and the two ratios.
 
     mpirun -n 2 python -m benchmarks validation layered --cases 17 18 19 --out bench_layered.json
     mpirun -n 2 python -m benchmarks validation layered --cases 13 14 15 --relaxation-length 1
+    mpirun -n 2 python -m benchmarks validation layered --cases 17 18 19 --rolling steady
 
 Cases of ``studies/data/cases_layered.csv`` (three layers of 0.4 d over a fixed base; Mn/DOT roller,
 d = 1.524 m, b = 0.4572 m, mu = 0.8, nu = 0.35, gamma = 20 kN/m^3; Drucker-Prager per layer),
 protocol rolling-constant-load at Q_V = 133.5 kN through ``run_scene`` (run directories under
 ``--out-dir``), ``--accuracy`` preset, half block ``--length`` x ``--half-width`` in d and
-deep enough for the layers (1.2 d + ``--below`` d).
+deep enough for the layers (1.2 d + ``--below`` d); or, with ``--rolling steady``, the steady
+state in the wheel's frame (its window reaches 0.2 d below the deepest layer boundary).
 
 Cases 17-19 are strong clay (c_dp = 300 kPa) with a very weak clay (c_dp = 20 kPa, E = 10 MPa)
 from 1.2 d (17: none in the block), 0.8 d (18) or 0.4 d (19) down; 13-15 the same with dense
@@ -203,7 +205,7 @@ def case_rows() -> dict[int, dict]:
     return {int(r["case"]): r for r in csv.DictReader(lines)}
 
 
-def scene_of(row: dict, accuracy: str, travel: float, relaxation_length: float = 0.0):
+def scene_of(row: dict, accuracy: str, travel: float, relaxation_length: float = 0.0, rolling: str = "transient"):
     layers = []
     for k in (1, 2, 3):
         layer = {"model": "drucker-prager", "E": float(row[f"E{k}_MPa"]) * 1e6, "nu": 0.35,
@@ -214,7 +216,8 @@ def scene_of(row: dict, accuracy: str, travel: float, relaxation_length: float =
     return parse_scene({"wheel": {"diameter": D, "width": B, "friction": 0.8},
                         "soil": {"gamma": GAMMA, "layers": layers},
                         "loading": {"protocol": "rolling-constant-load", "load": LOAD, "travel": travel},
-                        "model": {"accuracy": accuracy, "relaxation_length": relaxation_length}})
+                        "model": {"accuracy": accuracy, "rolling": rolling,
+                                  **({"relaxation_length": relaxation_length} if rolling == "transient" else {})}})
 
 
 def _weaker(row: dict, k: int) -> bool:
@@ -270,6 +273,8 @@ def layered(argv: list[str] | None = None) -> int:
     p.add_argument("--compare", type=float, default=0.25, help="travel window of the comparison, d")
     p.add_argument("--relaxation-length", type=float, default=0.0,
                    help="Duvaut-Lions relaxation length, mm of travel ([model] relaxation_length; 0: off)")
+    p.add_argument("--rolling", choices=("transient", "steady"), default="transient",
+                   help="steady: the steady state in the wheel's frame (no block, travel or relaxation)")
     p.add_argument("--out-dir", default="out/bench_layered")
     p.add_argument("--out")
     args = p.parse_args(argv)
@@ -279,11 +284,12 @@ def layered(argv: list[str] | None = None) -> int:
     for case in args.cases:
         t0 = time.perf_counter()
         row = rows[case]
-        scene = scene_of(row, args.accuracy, args.travel * D, 1e-3 * args.relaxation_length)
-        summary = run_scene(scene, pathlib.Path(args.out_dir) / f"case{case}", comm, progress=False,
-                              block={"length": args.length, "half_width": args.half_width,
-                                     "depth": 1.2 + args.below, "stiff_length": args.stiff})
-        ss = summary.get("steady_state", {})
+        scene = scene_of(row, args.accuracy, args.travel * D, 1e-3 * args.relaxation_length, args.rolling)
+        block = {} if args.rolling == "steady" else {
+            "block": {"length": args.length, "half_width": args.half_width, "depth": 1.2 + args.below,
+                      "stiff_length": args.stiff}}
+        summary = run_scene(scene, pathlib.Path(args.out_dir) / f"case{case}", comm, progress=False, **block)
+        ss = summary.get("steady_state", {"reached": summary["status"] == "ok"})
         res = {"case": case, "status": summary["status"], "weak_from_d": weak_depth(row),
                "steady": ss.get("reached"), "sinkage_m": summary.get("sinkage_m"), "QH_N": summary.get("QH_N"),
                "rut_depth_m": summary.get("rut_depth_m"), "model_H_m": model_influence(row),
@@ -299,16 +305,20 @@ def layered(argv: list[str] | None = None) -> int:
                   f"{res['newton_iterations']} Newton iterations, "
                   f"{res['time_s']:.0f} s", flush=True)
     if comm.rank == 0:
-        # compare at equal travel: the mean sinkage over the last --compare d of the shortest run
-        # (a run that did not reach steady state ran on towards the block's end)
-        hist = {r["case"]: rolled_sinkage(pathlib.Path(args.out_dir) / f"case{r['case']}" / "history.csv")
-                for r in results if r["status"] == "ok"}
-        base = next((r for r in results if r["weak_from_d"] is None and r["case"] in hist), None)
-        if base and len(hist) > 1:
-            end = min(x[-1] for x, _ in hist.values())
+        if args.rolling == "steady":                # one steady sinkage per case
+            mean = {r["case"]: r["sinkage_m"] for r in results if r["status"] == "ok"}
+        else:
+            # compare at equal travel: the mean sinkage over the last --compare d of the shortest run
+            # (a run that did not reach steady state ran on towards the block's end)
+            hist = {r["case"]: rolled_sinkage(pathlib.Path(args.out_dir) / f"case{r['case']}" / "history.csv")
+                    for r in results if r["status"] == "ok"}
+            end = min((x[-1] for x, _ in hist.values()), default=0.0)
             mean = {c: float(s[(x >= end - args.compare * D) & (x <= end)].mean()) for c, (x, s) in hist.items()}
-            print(f"mean sinkage over travel {end - args.compare * D:.2f}-{end:.2f} m: "
-                  + ", ".join(f"case {c} {1e3 * v:.2f} mm" for c, v in mean.items()))
+            if mean:
+                print(f"mean sinkage over travel {end - args.compare * D:.2f}-{end:.2f} m: "
+                      + ", ".join(f"case {c} {1e3 * v:.2f} mm" for c, v in mean.items()))
+        base = next((r for r in results if r["weak_from_d"] is None and r["case"] in mean), None)
+        if base and len(mean) > 1:
             for r in results:
                 if r["weak_from_d"] is not None and r["case"] in mean:
                     change = mean[r["case"]] / mean[base["case"]] - 1

@@ -383,7 +383,7 @@ TRANSIENT_ONLY = ("cell_type", "elements_across_wheel", "elements_along_path", "
 
 def _rolling_method(t: _Table, wheel: WheelSpec, soil: SoilSpec, loading: LoadingSpec) -> str:
     """``[model] rolling``: how a rigid wheel rolls; "steady" only where a steady window models the
-    scene (a rigid cylinder on a uniform soil, small strain)."""
+    scene (a rigid cylinder on uniform or horizontally layered soil, small strain)."""
     if not loading.protocol.startswith("rolling"):
         if t.has("rolling"):
             raise InputError(t.key("rolling"), "applies to the rolling protocols")
@@ -395,8 +395,6 @@ def _rolling_method(t: _Table, wheel: WheelSpec, soil: SoilSpec, loading: Loadin
         raise InputError(t.key("rolling"), '"steady" rolls a rigid wheel; the pneumatic tire rolls "transient"')
     if wheel.shape != "cylinder":
         raise InputError(t.key("rolling"), '"steady" rolls a cylinder (wheel.shape = "cylinder")')
-    if len(soil.layers) > 1:
-        raise InputError(t.key("rolling"), '"steady" takes a uniform soil (one layer); layered soil rolls "transient"')
     if t.data.get("kinematics", DEFAULT_KINEMATICS) != DEFAULT_KINEMATICS:
         raise InputError(t.key("kinematics"), f'steady rolling is {DEFAULT_KINEMATICS} (the streamlines are straight)')
     for key in TRANSIENT_ONLY:

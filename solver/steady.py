@@ -118,7 +118,11 @@ class RollingWindow:
     3D (a half window, symmetric about y = 0): ``across`` is the window's extent across the travel
     from the symmetry plane and ``load_half_width_across`` the load's half width (m; half the
     wheel's width); the fine cells span ``y <= fine_extent * load_half_width_across``.  Both None:
-    plane strain."""
+    plane strain.
+
+    ``interfaces``: depths below the surface (m) of the boundaries between soil layers, top first;
+    the row of nodes nearest each is moved onto it (before refinement), so that no cell straddles
+    two layers."""
 
     half_width: float
     ahead: float
@@ -130,6 +134,7 @@ class RollingWindow:
     refinement: int = 0
     across: float | None = None
     load_half_width_across: float | None = None
+    interfaces: tuple[float, ...] = ()
 
     def __post_init__(self):
         for name in ("half_width", "ahead", "behind", "depth"):
@@ -150,6 +155,12 @@ class RollingWindow:
                              f"(ahead {self.ahead:g}, behind {self.behind:g}, depth {self.depth:g} m)")
         if (self.across is None) != (self.load_half_width_across is None):
             raise ValueError("give both across and load_half_width_across (3D) or neither (plane strain)")
+        depths = np.asarray(self.interfaces, dtype=float)
+        if depths.ndim != 1 or not (np.all(np.isfinite(depths)) and np.all(depths > 0) and np.all(np.diff(depths) > 0)):
+            raise ValueError(f"interfaces must be increasing positive depths (m), got {self.interfaces!r}")
+        if depths.size and depths[-1] >= self.depth:
+            raise ValueError(f"the layer interface at {depths[-1]:g} m must lie above the window's base "
+                             f"({self.depth:g} m deep)")
         if self.across is not None:
             for name in ("across", "load_half_width_across"):
                 val = getattr(self, name)
@@ -200,7 +211,17 @@ class RollingWindow:
         n_fine = int(round(fine / h))
         core = np.linspace(-fine, 0.0, n_fine + 1)
         below = -fine - np.cumsum(_graded_cells(h, self.depth - fine, self.grading))
-        return self._refined(np.concatenate([below[::-1], core]))
+        nodes = np.concatenate([below[::-1], core])
+        moved = set()
+        for depth in self.interfaces:           # the nearest inner row moved onto each interface
+            inner = np.arange(1, len(nodes) - 1)
+            k = int(inner[np.abs(nodes[inner] + depth).argmin()]) if inner.size else 0
+            if k == 0 or k in moved:
+                raise ValueError(f"the layer interfaces {list(self.interfaces)} lie too close together (or to the "
+                                 f"surface or base) for cells of {h:g} m: refine the window")
+            nodes[k] = -depth
+            moved.add(k)
+        return self._refined(nodes)
 
     def across_nodes(self) -> np.ndarray:
         """3D: node abscissae across the travel from the symmetry plane to the side face (m)."""
@@ -394,7 +415,11 @@ class SteadyRolling:
     of the surface point at ``x + u``, ``kappa = penalty E / h`` (``h`` the smallest cell size at
     the surface); the law has no history, so its term and its derivative are local.
 
-    ``material``: ``VonMises`` or ``DruckerPrager``.  ``unit_weight`` (N/m^3) > 0 adds gravity and
+    ``material``: ``VonMises`` or ``DruckerPrager`` (or a material with its own return map); for
+    horizontally layered soil, a sequence of them from the surface down, with ``interfaces`` the
+    depths (m) of the boundaries between them (the mesh's rows of nodes must lie on them:
+    :class:`RollingWindow`'s ``interfaces``): a streamline lies in one layer, whose return map it
+    marches.  The penalty's ``E`` is the top layer's.  ``unit_weight`` (N/m^3) > 0 adds gravity and
     the geostatic stress ``sigma_v = -gamma depth``, ``sigma_h = K0 sigma_v`` (K0 as
     :meth:`PlasticityProblem.set_geostatic_stress`) as the inflow state.  ``degree``: displacement
     (Lagrange); ``quadrature_degree``: of the tensor Gauss rule (default ``2 * degree``: full
@@ -412,12 +437,19 @@ class SteadyRolling:
                  quadrature_degree: int | None = None, unit_weight: float = 0.0, K0: float | None = None,
                  control: NewtonKrylovControl | None = None, petsc_options: dict | None = None,
                  options_prefix: str = "rollsim_steady_", preconditioner: str = "tangent",
-                 volumetric_strain: str = DEFAULT_VOLUMETRIC_STRAIN):
+                 volumetric_strain: str = DEFAULT_VOLUMETRIC_STRAIN, interfaces=()):
         _check_arguments(mesh, half_width, wheel, penalty, friction, tangential_ratio, preconditioner, unit_weight,
                          volumetric_strain)
         self.volumetric_strain = volumetric_strain
         self.comm = mesh.comm
-        self.mesh, self.material, self.wheel = mesh, material, wheel
+        #: the soil's layers from the surface down and the depths of their boundaries (m)
+        self.materials = tuple(material) if isinstance(material, (list, tuple)) else (material,)
+        self.interfaces = np.asarray(interfaces, dtype=float).reshape(-1)
+        if len(self.interfaces) != len(self.materials) - 1 or np.any(np.diff(self.interfaces) <= 0) \
+                or np.any(self.interfaces <= 0):
+            raise ValueError(f"{len(self.materials)} layer(s) need {len(self.materials) - 1} increasing positive "
+                             f"interface depth(s) (m), got {list(self.interfaces)}")
+        self.mesh, self.material, self.wheel = mesh, self.materials[0], wheel
         gdim = mesh.geometry.dim
         self.gdim, self.ncomp = gdim, NCOMP[gdim]
         self._up = gdim - 1                        # the vertical axis
@@ -436,8 +468,8 @@ class SteadyRolling:
         self.half_width = None if half_width is None else float(half_width)
         self.control = control or NewtonKrylovControl()
         self.qdeg = 2 * degree if quadrature_degree is None else quadrature_degree
-        self.D = elastic_stiffness(material, self.ncomp)
-        self._D_inv = np.linalg.inv(self.D)
+        #: the layers' elasticity
+        self._D_layers = np.array([elastic_stiffness(m, self.ncomp) for m in self.materials])
         x, comm = mesh.geometry.x, self.comm
         #: the abscissae of the window's columns of vertices (m, all ranks'), from the rear face
         self._columns = np.unique(np.concatenate(comm.allgather(np.unique(np.round(x[:, 0], 12)))))
@@ -479,6 +511,7 @@ class SteadyRolling:
         #: coordinates of the quadrature points (m), in the quadrature spaces' order
         self.quadrature_coordinates = coords.reshape(self.n_qp, self.gdim)
         self._order, self.streamline_depths = self._streamlines()
+        self._init_layers()
         self._strain_expr = compat.expression(mandel_strain(self.u, self.gdim), points)
         self._dstrain_expr = compat.expression(mandel_strain(self._du, self.gdim), points)
         Qs = compat.quadrature_space(mesh, self.qdeg, (self.ncomp,))
@@ -486,6 +519,37 @@ class SteadyRolling:
         self._traction_space = compat.vector_space(mesh, degree, "DQ")
         self._traction, self._dtraction = fem.Function(self._traction_space), fem.Function(self._traction_space)
         self._outflow_map()
+
+    def _init_layers(self) -> None:
+        """Each streamline's layer (:attr:`_row_layer`), the rows of each layer's return map
+        (:attr:`_groups`), the inverse elasticity per row; refuses interfaces that cells straddle."""
+        heights = np.unique(np.concatenate(self.comm.allgather(np.unique(np.round(self.mesh.geometry.x[:, self._up],
+                                                                                  12)))))
+        for depth in self.interfaces:
+            if np.abs(heights - (self.surface - depth)).min() > 1e-9 * (self.surface - self.base):
+                raise ValueError(f"no row of nodes lies on the layer interface {depth:g} m deep: the cells would "
+                                 "straddle two layers (RollingWindow's interfaces)")
+        #: the layer (index into :attr:`materials`) of each streamline
+        self._row_layer = np.searchsorted(self.interfaces, self.streamline_depths)
+        self._groups = [(m, np.flatnonzero(self._row_layer == k)) for k, m in enumerate(self.materials)]
+        self._groups = [(m, rows) for m, rows in self._groups if rows.size]
+        if len(self._groups) == 1:              # one material on every streamline: no gathering
+            self._groups = [(self._groups[0][0], slice(None))]
+        self._D_inv = np.linalg.inv(self._D_layers)[self._row_layer]          # (rows, ncomp, ncomp)
+
+    def _elasticity(self):
+        """The elasticity as a UFL matrix: constant, or per cell from its layer's (layered soil)."""
+        if len(self.materials) == 1:
+            return ufl.as_matrix(self._D_layers[0].tolist())
+        DG0 = fem.FunctionSpace(self.mesh, ("DG", 0))
+        depth = self.surface - DG0.tabulate_dof_coordinates()[:, self._up]
+        layer = np.searchsorted(self.interfaces, depth)
+        D = 0
+        for k, Dk in enumerate(self._D_layers):
+            chi = fem.Function(DG0)
+            chi.x.array[:] = layer == k
+            D = D + chi * ufl.as_matrix(Dk.tolist())
+        return D
 
     def _init_boundary(self) -> ufl.Measure:
         """The fixed inflow face and base, the rollers in 3D (:attr:`bcs`, :attr:`_fixed`); the
@@ -557,7 +621,7 @@ class SteadyRolling:
         self._F = fem.form(ufl.inner(self._sigma, eps_v) * dx - ufl.inner(self._traction, v) * ds_rear + load)
         self._Jv = fem.form(ufl.inner(self._dsigma, eps_v) * dx - ufl.inner(self._dtraction, v) * ds_rear)
         self._load = fem.form(load)
-        Dm = ufl.as_matrix(self.D.tolist())
+        Dm = self._elasticity()
         K = fpetsc.assemble_matrix(fem.form(ufl.inner(ufl.dot(Dm, self._eps_w), eps_v) * dx), bcs=self.bcs)
         K.assemble()
         self._b = compat.create_vector(self._F)
@@ -571,7 +635,7 @@ class SteadyRolling:
         self.preconditioner = preconditioner
         self._tangent_form = None
         nc = self.ncomp
-        Ct = ufl.as_matrix(self.D.tolist())
+        Ct = self._elasticity()
         if preconditioner == "tangent":
             self._tangent_fn = fem.Function(compat.quadrature_space(self.mesh, self.qdeg, (nc * nc,)))
             Ct = ufl.as_matrix([[self._tangent_fn[i * nc + j] for j in range(nc)] for i in range(nc)])
@@ -756,13 +820,18 @@ class SteadyRolling:
         stress = np.zeros((rows, nc))
         self.K0 = None
         if unit_weight:
-            k0, clipped = admissible_k0(self.material, K0, unit_weight * (self.surface - self.base), nc)
-            if clipped:
-                log.warning("K0 violates the yield condition under self weight; using K0 = %.4g", k0)
+            used = []
+            for k, material in enumerate(self.materials):
+                k0, clipped = admissible_k0(material, K0, unit_weight * (self.surface - self.base), nc)
+                if clipped:
+                    log.warning("K0 violates the yield condition of layer %d under self weight; using K0 = %.4g",
+                                k + 1, k0)
+                used.append(k0)
             sv = -unit_weight * self.streamline_depths
-            stress[:, [k for k in range(3) if k != self._up]] = (k0 * sv)[:, None]
+            stress[:, [k for k in range(3) if k != self._up]] = (np.array(used)[self._row_layer] * sv)[:, None]
             stress[:, self._up] = sv
-            self.K0 = k0
+            #: the geostatic coefficient used: one, or per layer
+            self.K0 = used[0] if len(set(used)) == 1 else tuple(used)
         return StreamlineState(stress, np.zeros((rows, nc)), np.zeros(rows))
 
     def _krylov_solver(self) -> PETSc.KSP:
@@ -814,16 +883,19 @@ class SteadyRolling:
         C, ACC = np.empty((rows, stations, self.ncomp, self.ncomp)), np.empty((rows, stations))
         previous = np.zeros((rows, self.ncomp))
         for i in range(stations):
-            res = return_map(self.material, sigma, strain[:, i] - previous)
-            sigma = res.sigma
-            eps_p = eps_p + res.deps_p
-            acc = acc + _SQ23 * np.linalg.norm(res.deps_p, axis=1)
-            S[:, i], EP[:, i], ACC[:, i], C[:, i] = sigma, eps_p, acc, res.tangent
+            deps = strain[:, i] - previous
+            for material, rows in self._groups:
+                res = return_map(material, sigma[rows], deps[rows])
+                sigma[rows] = res.sigma
+                eps_p[rows] += res.deps_p
+                acc[rows] += _SQ23 * np.linalg.norm(res.deps_p, axis=1)
+                C[rows, i] = res.tangent
+            S[:, i], EP[:, i], ACC[:, i] = sigma, eps_p, acc
             previous = strain[:, i]
         self._counts["sweeps"] += 1
         self._fields = (S, EP, ACC)
         self._tangent = C
-        self._upstream = C @ self._D_inv           # d sigma_i / d sigma_{i-1}
+        self._upstream = C @ self._D_inv[:, None]  # d sigma_i / d sigma_{i-1}
         if self._projection is not None:           # the residual's stress: B-bar acts on the change
             S = self._stress_bar(S, inflow.stress[:, None, :])
         self._store(self._sigma, S)

@@ -178,9 +178,9 @@ def test_hexahedral_rolling_block_options():
 
 
 def test_steady_rolling_rules():
-    """[model] rolling = "steady": a rigid cylinder on one soil layer, small strain; travel not
-    needed; its elements per d are the steady presets'; the transient block's keys are refused as
-    not applying, and so is the key on indentation, a tire, a torus and layered soil."""
+    """[model] rolling = "steady": a rigid cylinder on uniform or layered soil, small strain;
+    travel not needed; its elements per d are the steady presets'; the transient block's keys are
+    refused as not applying, and so is the key on indentation, a tire and a torus."""
     steady = with_change("loading", {"protocol": "rolling-constant-load", "load": "133.5 kN"})
     steady["model"] = {"rolling": "steady", "accuracy": "fast"}
     scene = parse_scene(steady)
@@ -189,6 +189,9 @@ def test_steady_rolling_rules():
     assert scene.model.mesh_name == "fast (steady window, 20 elements per d at the contact)"
     steady["model"]["refinement"] = 12
     assert parse_scene(steady).model.elements_per_d == 12
+    layered = json.loads(json.dumps(steady))
+    layered["soil"]["layers"] = [{**BASE["soil"]["layers"][0], "thickness": "0.5 m"}, BASE["soil"]["layers"][0]]
+    assert len(parse_scene(layered).soil.layers) == 2
     transient = with_change("loading", {"protocol": "rolling-constant-load", "load": "133.5 kN"})
     with pytest.raises(InputError) as err:                   # transient rolling needs its travel
         parse_scene(transient)
@@ -198,8 +201,6 @@ def test_steady_rolling_rules():
     refused = [("model.rolling", {"loading": BASE["loading"]}),
                ("model.rolling", {"wheel": tire}),
                ("model.rolling", {"wheel": {**BASE["wheel"], "shape": "torus"}}),
-               ("model.rolling", {"soil": {"gamma": "127 pcf", "layers": [
-                   {**BASE["soil"]["layers"][0], "thickness": "0.5 m"}, BASE["soil"]["layers"][0]]}}),
                ("model.kinematics", {"model": {"rolling": "steady", "kinematics": "updated-lagrangian"}}),
                ("model.cell_type", {"model": {"rolling": "steady", "cell_type": "hexahedra"}}),
                ("model.relaxation_length", {"model": {"rolling": "steady", "relaxation_length": "1 mm"}})]

@@ -45,13 +45,19 @@ FIRST_STEP = 0.002
 MAX_STEP = 0.005
 #: the window in wheel diameters: the fine zone's half length (also its depth and, from the wheel's
 #: edge, its reach across), the soil ahead of the axle, behind it, below the surface and across
-#: from the wheel's edge
-WINDOW = {"half_width": 0.1, "ahead": 0.4, "behind": 0.6, "depth": 0.4, "beside": 0.3}
+#: from the wheel's edge, and below the deepest layer interface (layered soil)
+WINDOW = {"half_width": 0.1, "ahead": 0.4, "behind": 0.6, "depth": 0.4, "beside": 0.3, "below_interface": 0.2}
+
+
+def layer_interfaces(scene) -> tuple[float, ...]:
+    """The depths (m) of the boundaries between the scene's soil layers, top first."""
+    return tuple(np.cumsum([layer.thickness for layer in scene.soil.layers[:-1]]).tolist())
 
 
 def steady_window(scene, extents: dict | None = None) -> RollingWindow:
     """The half window of a steady roll of ``scene`` (m): :data:`WINDOW` (with ``extents`` in its
-    place where given) times the diameter, each face at least a cell beyond the fine zone; the
+    place where given) times the diameter, each face at least a cell beyond the fine zone, the base
+    at least ``below_interface`` below the deepest layer interface (rows of nodes on each); the
     fine cells d / (the preset's elements per d, or ``[model] refinement``)."""
     d, b = scene.wheel.diameter, scene.wheel.width
     extents = {**WINDOW, **(extents or {})}
@@ -60,13 +66,15 @@ def steady_window(scene, extents: dict | None = None) -> RollingWindow:
     fine = RollingWindow(half_width=half_width, ahead=10 * d, behind=10 * d, depth=10 * d, cells_per_half_width=cells,
                          across=10 * (b + d), load_half_width_across=b / 2)
     reach, h = fine.fine_length + fine.cell_size, fine.cell_size        # the fine zone and one cell more
+    interfaces = layer_interfaces(scene)
+    depth = max(extents["depth"] * d, reach, (interfaces[-1] + extents["below_interface"] * d) if interfaces else 0.0)
     return replace(fine, ahead=max(extents["ahead"] * d, reach), behind=max(extents["behind"] * d, reach),
-                   depth=max(extents["depth"] * d, reach), across=max(b / 2 + extents["beside"] * d, fine.fine_across + h))
+                   depth=depth, across=max(b / 2 + extents["beside"] * d, fine.fine_across + h), interfaces=interfaces)
 
 
 def run_steady(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_options: dict | None = None,
                write_fields: bool = True, penalty: float | None = None, window: dict | None = None) -> dict:
-    """Steady rolling of ``scene`` (rigid cylinder, uniform soil) on ``comm``; writes the run
+    """Steady rolling of ``scene`` (rigid cylinder, uniform or layered soil) on ``comm``; writes the run
     directory ``out_dir`` and returns the summary.  ``window``: extents in d in place of
     :data:`WINDOW`'s (studies of the window's effect, tests).  A steady state that cannot be found
     ends the run as ``"failed"`` with the reason; the states found before it are kept."""
@@ -74,10 +82,10 @@ def run_steady(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_o
     out = make_run_directory(out_dir, comm)
     window = steady_window(scene, window)
     soil = layer_materials(scene)
-    material = soil.by_layer[1]
+    materials = [soil.by_layer[k] for k in sorted(soil.by_layer)]
     wheel = wheel_geometry(scene.wheel)
     alpha = scene_penalty(scene, penalty)
-    steady = SteadyRolling(rolling_window_mesh(comm, window), material, wheel=wheel,
+    steady = SteadyRolling(rolling_window_mesh(comm, window), materials, wheel=wheel, interfaces=window.interfaces,
                            friction=scene.wheel.friction, unit_weight=scene.soil.gamma,
                            volumetric_strain=scene.model.volumetric_strain, petsc_options=petsc_options,
                            **({} if alpha is None else {"penalty": alpha}))
@@ -196,7 +204,8 @@ def _summary(scene, steady: SteadyRolling, window: RollingWindow, rows, last, li
                                      "friction": steady.friction, "tangential_ratio": steady.tangential_ratio},
                          "window_m": {"ahead": window.ahead, "behind": window.behind, "depth": window.depth,
                                       "across": window.across, "fine_cell": window.cell_size,
-                                      "fine_half_length": window.fine_length}},
+                                      "fine_half_length": window.fine_length,
+                                      "layer_interfaces": list(window.interfaces)}},
                "files": {"history": "history.csv", "plot": "force_sinkage.png", "rut_profile": "rut_profile.csv",
                          "rut_picture": "rut.png", "fields": []}}
     if last is not None:
