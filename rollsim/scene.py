@@ -76,6 +76,7 @@ class LoadingSpec:
     max_sinkage: float | None = None  # m
     load: float | None = None  # N
     travel: float | None = None  # m; not needed by steady rolling
+    passes: int | None = None  # steady rolling-constant-load: passes over the same soil; None: one
 
 
 @dataclass(frozen=True)
@@ -158,7 +159,7 @@ TABLE_KEYS = {
     "wheel": ("type", "shape", "diameter", "width", "fillet", "friction", "hub_diameter", "inflation",
               "E_carcass", "nu_carcass", "t_tread"),
     "soil.layers[]": ("model", "E", "nu", "thickness", "phi_dp", "c_dp", "c", "phi", "match", "dilation"),
-    "loading": ("protocol", "max_sinkage", "load", "travel"),
+    "loading": ("protocol", "max_sinkage", "load", "travel", "passes"),
 }
 
 #: plausibility of a scene quantity, by key, SI: ``(hard low, hard high, typical low, typical high)``.
@@ -344,6 +345,13 @@ def _loading(t: _Table, wheel: WheelSpec, steady: bool = False) -> LoadingSpec:
         spec["load"] = t.quantity("load", FORCE, required=True, positive=True)
     if protocol.startswith("rolling"):
         spec["travel"] = t.quantity("travel", LENGTH, required=not steady, positive=True)
+    if protocol == "rolling-constant-load" and t.has("passes"):
+        passes = t.raw("passes")
+        if isinstance(passes, bool) or not isinstance(passes, int) or not 1 <= passes <= MAX_PASSES:
+            raise InputError(t.key("passes"), f"must be a whole number of passes from 1 to {MAX_PASSES}, got {passes!r}")
+        if passes > 1 and not steady:
+            raise InputError(t.key("passes"), 'more than one pass needs [model] rolling = "steady"')
+        spec["passes"] = passes
     t.done(f"protocol {protocol}")
     return LoadingSpec(**spec)
 
@@ -375,6 +383,9 @@ def _rolling_cells(t: _Table, wheel: WheelSpec, loading: LoadingSpec,
                          "strip is refined along the path, never coarsened")
     return cell_type, default_across if across is None else across, default_along if along is None else along
 
+
+#: the most passes of ``loading.passes``
+MAX_PASSES = 50
 
 #: the [model] keys of the transient rolling block and solver that a steady window does not use
 TRANSIENT_ONLY = ("cell_type", "elements_across_wheel", "elements_along_path", "relaxation_length",

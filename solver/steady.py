@@ -1036,6 +1036,13 @@ class SteadyRolling:
             self.solve_sinkage(middle, inflow, max_cuts=max_cuts - 1)
             return self.solve_sinkage(sinkage, inflow, max_cuts=max_cuts - 1)
 
+    def restart(self) -> None:
+        """Back to the undisturbed soil under the wheel touching it (spin 1): the next
+        :meth:`solve_sinkage` continues from there (e.g. the next pass, on another inflow)."""
+        self.u.x.array[:] = 0.0
+        self.spin, self._last_sinkage = 1.0, None
+        self._converged = [(0.0, self.u.x.array.copy(), self.spin)] if self.wheel is not None else []
+
     def _predict(self, sinkage: float) -> None:
         """Secant predictor: when the displacement is that of the last sinkage solved and the two
         last sinkages lie below ``sinkage``, move it along their secant (at most one of their

@@ -192,6 +192,21 @@ def test_steady_rolling_rules():
     layered = json.loads(json.dumps(steady))
     layered["soil"]["layers"] = [{**BASE["soil"]["layers"][0], "thickness": "0.5 m"}, BASE["soil"]["layers"][0]]
     assert len(parse_scene(layered).soil.layers) == 2
+    assert parse_scene(steady).loading.passes is None
+    steady["loading"]["passes"] = 3
+    assert parse_scene(steady).loading.passes == 3
+    for bad in (0, 2.5, True, "3", 51):
+        steady["loading"]["passes"] = bad
+        with pytest.raises(InputError) as err:
+            parse_scene(steady)
+        assert err.value.field == "loading.passes", bad
+    del steady["loading"]["passes"]
+    transient = json.loads(json.dumps(steady))
+    transient["loading"].update(passes=2, travel="3 m")
+    transient["model"]["rolling"] = "transient"
+    with pytest.raises(InputError) as err:                   # more passes need the steady solver
+        parse_scene(transient)
+    assert err.value.field == "loading.passes"
     transient = with_change("loading", {"protocol": "rolling-constant-load", "load": "133.5 kN"})
     with pytest.raises(InputError) as err:                   # transient rolling needs its travel
         parse_scene(transient)

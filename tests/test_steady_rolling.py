@@ -933,3 +933,44 @@ def test_steady_force_sinkage_curve_end_to_end(comm, tmp_mpi_path):
     last = direct.solve_sinkage(4e-3)
     assert last.vertical_force == pytest.approx(summary["QV_N"], rel=1e-6)
     assert comm.rank != 0 or (tmp_mpi_path / "force_sinkage.png").stat().st_size > 1000
+
+
+@pytest.mark.end_to_end
+def test_repeated_passes_of_the_towed_wheel(comm, tmp_mpi_path):
+    """``loading.passes = 3`` (clay, frictionless, coarse cells, 40 kN): each pass meets the soil
+    the last one left (its outflow state) and carries the load; the soil passed over carries it
+    at a smaller sinkage, each pass adds less rut, the total rut is their sum, and this clay
+    ratchets (the third pass still adds over half the first's rut, measured 0.58)."""
+    from rollsim.scene import parse_scene
+    from rollsim.solver.drivers.steady_rolling import LOAD_RTOL
+    from rollsim.solver.run import run_scene
+    scene = parse_scene({"wheel": {"diameter": "1.524 m", "width": "0.4572 m", "friction": 0.0},
+                         "soil": {"gamma": "20 kN/m^3", "layers": [{"model": "von-mises", "E": "40 MPa", "nu": 0.35,
+                                                                    "c_dp": "200 kPa"}]},
+                         "loading": {"protocol": "rolling-constant-load", "load": "40 kN", "passes": 3},
+                         "model": {"rolling": "steady", "refinement": 10}})
+    small = {"ahead": 0.25, "behind": 0.35, "depth": 0.25, "beside": 0.15}
+    summary = run_scene(scene, tmp_mpi_path, comm, progress=False, window=small)
+    assert summary["status"] == "ok", summary["reason"]
+    passes = summary["passes"]
+    assert [p["pass"] for p in passes] == [1, 2, 3]
+    assert all(abs(p["QV_N"] - 40e3) <= LOAD_RTOL * 40e3 for p in passes)
+    sinkage, rut = [p["sinkage_m"] for p in passes], [p["rut_m"] for p in passes]
+    assert sinkage[0] > sinkage[1] > sinkage[2] > 0 and rut[0] > rut[1] > rut[2] > 0
+    assert passes[-1]["total_rut_m"] == pytest.approx(sum(rut), rel=1e-12)
+    assert summary["sinkage_m"] == pytest.approx(sinkage[-1])
+    assert summary["shakedown"]["regime"] == "ratchetting"
+    assert summary["shakedown"]["last_over_first_rut"] == pytest.approx(rut[2] / rut[0])
+
+
+def test_regimes_of_repeated_passes():
+    """The regime of several passes from what the last adds against the first."""
+    from rollsim.solver.drivers.steady_rolling import _passes_summary
+
+    def regime(rut, plastic):
+        rows = [{"rut_m": 1e-3, "added_plastic_strain": 0.1}, {"rut_m": rut, "added_plastic_strain": plastic}]
+        return _passes_summary(rows)["shakedown"]["regime"]
+    assert regime(1e-6, 1e-4) == "elastic shakedown"
+    assert regime(1e-5, 0.05) == "cyclic plasticity"
+    assert regime(3e-4, 0.05) == "ratchetting"
+    assert "shakedown" not in _passes_summary([{"rut_m": 1e-3, "added_plastic_strain": 0.1}])

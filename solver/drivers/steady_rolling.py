@@ -7,6 +7,8 @@ block.
   the towed wheel carries ``loading.load``, then found by a secant iteration; the summary gives
   the steady sinkage, Q_H, the wheel's spin and rolling radius, the contact length, the rut left
   behind the window's rear face and the rebound.
+  With ``loading.passes`` > 1 the wheel passes again over the soil the last pass left behind
+  (its outflow state; the summary's ``passes`` and ``shakedown``).
 * ``rolling-continuous``: the towed wheel held at ten sinkages up to ``loading.max_sinkage``,
   each a steady state: the force-sinkage curve Q_V(s), Q_H(s) without a ramp.
 
@@ -96,20 +98,21 @@ def run_steady(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_o
                  scene.loading.protocol, scene.wheel.diameter, scene.wheel.width, window.ahead, window.behind,
                  window.depth, window.across, window.cell_size, dofs, comm.size)
     rows: list[dict] = []
-    results: dict = {}
+    results: dict = {"inflow": steady.inflow, "pass": 1}     # the soil the current pass meets
     states: dict = {}               # sinkage -> (displacement, spin, Q_V) of the states solved
+    passes: list[dict] = []
 
     def record(res) -> None:
         rows.append(_row(len(rows) + 1, res, scene.wheel.diameter, t_start))
         write_history(out, rows, comm)
-        results.update(last=res, state=(steady.u.x.array.copy(), steady.spin))
+        results.update(last=res, state=(steady.u.x.array.copy(), steady.spin), state_inflow=results["inflow"])
         if progress and comm.rank == 0:
             log.info("steady state %d: s = %.4g mm, Q_V = %.4g kN, Q_H = %.4g kN, spin %.5f (%d Newton, %d Krylov, "
                      "%.1f s)", len(rows), 1e3 * res.sinkage, res.vertical_force / 1e3, res.towing_force / 1e3,
                      res.spin, res.newton_iterations, res.krylov_iterations, res.wall_time)
 
     def solve(sinkage: float):
-        res = steady.solve_free_rolling(sinkage, torque_rtol=TORQUE_RTOL)
+        res = steady.solve_free_rolling(sinkage, results["inflow"], torque_rtol=TORQUE_RTOL)
         record(res)
         states[res.sinkage] = (*results["state"], res.vertical_force)
         return res
@@ -119,18 +122,26 @@ def run_steady(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_o
             for s in np.arange(1, CURVE_POINTS + 1) * scene.loading.max_sinkage / CURVE_POINTS:
                 solve(float(s))
         else:
-            final = _constant_load(steady, scene, solve, states)
-            if final is not results["last"]:        # else a step hit the load and is recorded
-                record(final)
+            for k in range(1, (scene.loading.passes or 1) + 1):
+                if k > 1:                           # the soil the last pass left behind, the wheel lifted
+                    steady.restart()
+                    states.clear()
+                    results.update(inflow=results["last"].outflow, **{"pass": k})
+                final = _constant_load(steady, scene, solve, states, results["inflow"])
+                if final is not results["last"]:    # else a step hit the load and is recorded
+                    record(final)
+                passes.append(_pass_row(k, steady, final, results["inflow"], passes, progress))
         return None
 
     status, reason, diagnostics = run_protected(body, comm, lambda: {"steady_states": len(rows)})
     if rows:                       # the last state recorded (a failed solve leaves another behind)
         steady.u.x.array[:], steady.spin = results["state"]
-        steady.residual(steady.inflow)          # its fields swept again
+        steady.residual(results["state_inflow"])          # its fields swept again
     line = _centre_line(steady, rows[-1]["sinkage_m"]) if rows else None
     summary = _summary(scene, steady, window, rows, results.get("last"), line, status, reason, diagnostics,
                        t_start, dofs, alpha)
+    if len(passes) > 1 or (scene.loading.passes or 1) > 1:
+        summary.update(_passes_summary(passes))
     if rows:
         _write_rut(out, line, scene, summary, comm)
         if write_fields:
@@ -139,10 +150,11 @@ def run_steady(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_o
     return finish_run(out, rows, scene, summary, comm, progress=progress)
 
 
-def _constant_load(steady: SteadyRolling, scene, solve, states: dict):
-    """The towed wheel at ``loading.load``: sinkage steps of :data:`FIRST_STEP` d (growing by half
-    per step up to :data:`MAX_STEP` d) until Q_V passes the load, then :meth:`SteadyRolling.solve_load` inside that
-    bracket from the ``states`` solved (to :data:`LOAD_RTOL`)."""
+def _constant_load(steady: SteadyRolling, scene, solve, states: dict, inflow):
+    """The towed wheel at ``loading.load`` on the soil entering in the state ``inflow``: sinkage
+    steps of :data:`FIRST_STEP` d (growing by half per step up to :data:`MAX_STEP` d) until Q_V
+    passes the load, then :meth:`SteadyRolling.solve_load` inside that bracket from the ``states``
+    solved (to :data:`LOAD_RTOL`)."""
     d, load = scene.wheel.diameter, scene.loading.load
     step, sinkage = FIRST_STEP * d, 0.0
     while True:
@@ -156,7 +168,49 @@ def _constant_load(steady: SteadyRolling, scene, solve, states: dict):
         step = min(1.5 * step, MAX_STEP * d)
     if abs(res.vertical_force - load) <= LOAD_RTOL * load:
         return res
-    return steady.solve_load(load, free_rolling=True, rtol=LOAD_RTOL, states=states, torque_rtol=TORQUE_RTOL)
+    return steady.solve_load(load, inflow, free_rolling=True, rtol=LOAD_RTOL, states=states, torque_rtol=TORQUE_RTOL)
+
+
+#: the last of several passes counts as adding no rut (or no plastic strain) when it adds at most
+#: this fraction of the first pass's
+SHAKEDOWN_RATIO = 0.02
+
+
+def _pass_row(k: int, steady: SteadyRolling, res, inflow, passes: list[dict], progress: bool) -> dict:
+    """One pass of ``loading.passes``: its steady sinkage (below the surface it meets), forces, the
+    rut it adds (the centre line's settlement at the rear face), the rut of all passes so far, the
+    largest accumulated plastic strain it adds on a streamline leaving the window."""
+    rut = float(_centre_line(steady, res.sinkage)["settlement"][0])
+    added = res.outflow.accumulated_plastic_strain - inflow.accumulated_plastic_strain
+    row = {"pass": k, "sinkage_m": res.sinkage, "QV_N": res.vertical_force, "QH_N": res.towing_force,
+           "spin": res.spin, "rut_m": rut, "total_rut_m": rut + sum(p["rut_m"] for p in passes),
+           "added_plastic_strain": steady.comm.allreduce(float(added.max(initial=0.0)), MPI.MAX)}
+    if progress and steady.comm.rank == 0:
+        log.info("pass %d: s = %.4g mm below the surface it meets, Q_H = %.4g kN, rut %.4g mm (total %.4g mm), "
+                 "accumulated plastic strain added %.3g", k, 1e3 * res.sinkage, res.towing_force / 1e3,
+                 1e3 * rut, 1e3 * row["total_rut_m"], row["added_plastic_strain"])
+    return row
+
+
+def _passes_summary(passes: list[dict]) -> dict:
+    """``summary.json``'s ``passes`` (one row per pass) and ``shakedown``: what the last pass adds
+    against the first (ratios of the rut and of the largest accumulated plastic strain added) and
+    the regime (K. L. Johnson, Contact Mechanics, ch. 9): ``elastic shakedown`` (no more plastic
+    strain), ``cyclic plasticity`` (the rut stops growing, the plastic strain does not) or
+    ``ratchetting`` (the rut grows on); "no more" is at most :data:`SHAKEDOWN_RATIO` of the first
+    pass's."""
+    out = {"passes": passes}
+    if len(passes) < 2:
+        return out
+    first, last = passes[0], passes[-1]
+    if first["rut_m"] > 0 and first["added_plastic_strain"] > 0:
+        rut = last["rut_m"] / first["rut_m"]
+        plastic = last["added_plastic_strain"] / first["added_plastic_strain"]
+        regime = ("elastic shakedown" if plastic <= SHAKEDOWN_RATIO
+                  else "cyclic plasticity" if abs(rut) <= SHAKEDOWN_RATIO else "ratchetting")
+        out["shakedown"] = {"last_over_first_rut": rut, "last_over_first_plastic_strain": plastic,
+                            "regime": regime, "criterion": SHAKEDOWN_RATIO}
+    return out
 
 
 #: relative tolerance on Q_V = load of ``rolling-constant-load``
