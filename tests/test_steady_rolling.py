@@ -959,6 +959,7 @@ def test_repeated_passes_of_the_towed_wheel(comm, tmp_mpi_path):
     assert sinkage[0] > sinkage[1] > sinkage[2] > 0 and rut[0] > rut[1] > rut[2] > 0
     assert passes[-1]["total_rut_m"] == pytest.approx(sum(rut), rel=1e-12)
     assert summary["sinkage_m"] == pytest.approx(sinkage[-1])
+    assert summary["rut_depth_m"] == pytest.approx(passes[-1]["total_rut_m"])
     assert summary["shakedown"]["regime"] == "ratchetting"
     assert summary["shakedown"]["last_over_first_rut"] == pytest.approx(rut[2] / rut[0])
 

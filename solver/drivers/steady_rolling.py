@@ -147,6 +147,8 @@ def run_steady(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_o
         if write_fields:
             _write_fields(out, steady)
             summary["files"]["fields"] = ["fields/steady.xdmf"]
+    if passes and "rut_depth_m" in summary and (scene.loading.passes or 1) > 1:
+        summary["rut_depth_m"] = passes[-1]["total_rut_m"]        # of all passes (the profile: the last's)
     return finish_run(out, rows, scene, summary, comm, progress=progress)
 
 
