@@ -541,7 +541,7 @@ class SteadyRolling:
         """The elasticity as a UFL matrix: constant, or per cell from its layer's (layered soil)."""
         if len(self.materials) == 1:
             return ufl.as_matrix(self._D_layers[0].tolist())
-        DG0 = fem.FunctionSpace(self.mesh, ("DG", 0))
+        DG0 = compat.scalar_space(self.mesh, 0, "DG")
         depth = self.surface - DG0.tabulate_dof_coordinates()[:, self._up]
         layer = np.searchsorted(self.interfaces, depth)
         D = 0
