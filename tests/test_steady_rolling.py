@@ -937,31 +937,31 @@ def test_steady_force_sinkage_curve_end_to_end(comm, tmp_mpi_path):
 
 @pytest.mark.end_to_end
 def test_repeated_passes_of_the_towed_wheel(comm, tmp_mpi_path):
-    """``loading.passes = 3`` (clay, frictionless, coarse cells, 40 kN): each pass meets the soil
-    the last one left (its outflow state) and carries the load; the soil passed over carries it
-    at a smaller sinkage, each pass adds less rut, the total rut is their sum, and this clay
-    ratchets (the third pass still adds over half the first's rut, measured 0.58)."""
+    """``loading.passes = 2`` (clay, frictionless, coarse cells, 40 kN): the second pass meets
+    the soil the first left (its outflow state) and carries the load at a smaller sinkage, adding
+    less rut; the total rut is their sum, and this clay ratchets (the second pass still adds over
+    half the first's rut, measured 0.62)."""
     from rollsim.scene import parse_scene
     from rollsim.solver.drivers.steady_rolling import LOAD_RTOL
     from rollsim.solver.run import run_scene
     scene = parse_scene({"wheel": {"diameter": "1.524 m", "width": "0.4572 m", "friction": 0.0},
                          "soil": {"gamma": "20 kN/m^3", "layers": [{"model": "von-mises", "E": "40 MPa", "nu": 0.35,
                                                                     "c_dp": "200 kPa"}]},
-                         "loading": {"protocol": "rolling-constant-load", "load": "40 kN", "passes": 3},
+                         "loading": {"protocol": "rolling-constant-load", "load": "40 kN", "passes": 2},
                          "model": {"rolling": "steady", "refinement": 10}})
     small = {"ahead": 0.25, "behind": 0.35, "depth": 0.25, "beside": 0.15}
     summary = run_scene(scene, tmp_mpi_path, comm, progress=False, window=small)
     assert summary["status"] == "ok", summary["reason"]
     passes = summary["passes"]
-    assert [p["pass"] for p in passes] == [1, 2, 3]
+    assert [p["pass"] for p in passes] == [1, 2]
     assert all(abs(p["QV_N"] - 40e3) <= LOAD_RTOL * 40e3 for p in passes)
     sinkage, rut = [p["sinkage_m"] for p in passes], [p["rut_m"] for p in passes]
-    assert sinkage[0] > sinkage[1] > sinkage[2] > 0 and rut[0] > rut[1] > rut[2] > 0
+    assert sinkage[0] > sinkage[1] > 0 and rut[0] > rut[1] > 0.5 * rut[0]
     assert passes[-1]["total_rut_m"] == pytest.approx(sum(rut), rel=1e-12)
     assert summary["sinkage_m"] == pytest.approx(sinkage[-1])
     assert summary["rut_depth_m"] == pytest.approx(passes[-1]["total_rut_m"])
     assert summary["shakedown"]["regime"] == "ratchetting"
-    assert summary["shakedown"]["last_over_first_rut"] == pytest.approx(rut[2] / rut[0])
+    assert summary["shakedown"]["last_over_first_rut"] == pytest.approx(rut[1] / rut[0])
 
 
 def test_regimes_of_repeated_passes():
