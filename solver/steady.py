@@ -364,7 +364,7 @@ class HorizontalBalance:
 
 
 def _check_arguments(mesh, half_width, wheel, penalty, friction, tangential_ratio, preconditioner, unit_weight,
-                     volumetric_strain) -> None:
+                     volumetric_strain, layers: int, interfaces: np.ndarray) -> None:
     """The arguments of :class:`SteadyRolling` that it refuses, with the reason."""
     gdim = mesh.geometry.dim
     cells = {2: "quadrilateral", 3: "hexahedron"}.get(gdim)
@@ -395,6 +395,9 @@ def _check_arguments(mesh, half_width, wheel, penalty, friction, tangential_rati
         raise ValueError(f"unit_weight must be >= 0 (N/m^3), got {unit_weight!r}")
     if volumetric_strain not in VOLUMETRIC_STRAINS:
         raise ValueError(f"volumetric_strain must be one of {', '.join(VOLUMETRIC_STRAINS)}, got {volumetric_strain!r}")
+    if len(interfaces) != layers - 1 or np.any(np.diff(interfaces) <= 0) or np.any(interfaces <= 0):
+        raise ValueError(f"{layers} layer(s) need {layers - 1} increasing positive interface depth(s) (m), "
+                         f"got {list(interfaces)}")
 
 
 class SteadyRolling:
@@ -438,17 +441,13 @@ class SteadyRolling:
                  control: NewtonKrylovControl | None = None, petsc_options: dict | None = None,
                  options_prefix: str = "rollsim_steady_", preconditioner: str = "tangent",
                  volumetric_strain: str = DEFAULT_VOLUMETRIC_STRAIN, interfaces=()):
-        _check_arguments(mesh, half_width, wheel, penalty, friction, tangential_ratio, preconditioner, unit_weight,
-                         volumetric_strain)
-        self.volumetric_strain = volumetric_strain
-        self.comm = mesh.comm
         #: the soil's layers from the surface down and the depths of their boundaries (m)
         self.materials = tuple(material) if isinstance(material, (list, tuple)) else (material,)
         self.interfaces = np.asarray(interfaces, dtype=float).reshape(-1)
-        if len(self.interfaces) != len(self.materials) - 1 or np.any(np.diff(self.interfaces) <= 0) \
-                or np.any(self.interfaces <= 0):
-            raise ValueError(f"{len(self.materials)} layer(s) need {len(self.materials) - 1} increasing positive "
-                             f"interface depth(s) (m), got {list(self.interfaces)}")
+        _check_arguments(mesh, half_width, wheel, penalty, friction, tangential_ratio, preconditioner, unit_weight,
+                         volumetric_strain, len(self.materials), self.interfaces)
+        self.volumetric_strain = volumetric_strain
+        self.comm = mesh.comm
         self.mesh, self.material, self.wheel = mesh, self.materials[0], wheel
         gdim = mesh.geometry.dim
         self.gdim, self.ncomp = gdim, NCOMP[gdim]
@@ -458,12 +457,6 @@ class SteadyRolling:
         self.friction = float(friction)
         #: the friction's stick stiffness over the normal penalty (:mod:`rollsim.solver.steady_friction`)
         self.tangential_ratio = float(tangential_ratio)
-        #: the wheel's dimensionless spin ``xi = omega R / V`` (-; ``omega`` in the rolling sense, 1:
-        #: rolling without slip on a rigid surface)
-        self.spin = 1.0
-        self._last_sinkage: float | None = None
-        #: the sinkage, displacement and spin of the last two sinkages solved (the predictor's secant)
-        self._converged: list[tuple[float, np.ndarray, float]] = []
         self._predict_spin = False          # the predictor moves the spin too (a free-rolling solve's first)
         self.half_width = None if half_width is None else float(half_width)
         self.control = control or NewtonKrylovControl()
@@ -477,8 +470,7 @@ class SteadyRolling:
         self.surface = comm.allreduce(float(x[:, self._up].max()), MPI.MAX)
         self.base = comm.allreduce(float(x[:, self._up].min()), MPI.MIN)
         self._init_spaces(degree)
-        if wheel is not None:                  # the undisturbed soil: the wheel touching the surface
-            self._converged.append((0.0, self.u.x.array.copy(), self.spin))
+        self.restart()
         ds = self._init_boundary()
         K = self._init_forms(ds, degree, penalty, unit_weight)
         self._init_preconditioner(K, preconditioner)
@@ -536,6 +528,8 @@ class SteadyRolling:
         if len(self._groups) == 1:              # one material on every streamline: no gathering
             self._groups = [(self._groups[0][0], slice(None))]
         self._D_inv = np.linalg.inv(self._D_layers)[self._row_layer]          # (rows, ncomp, ncomp)
+        #: the elasticity in UFL (the elastic stiffness and the elastic preconditioner)
+        self._elastic_ufl = self._elasticity()
 
     def _elasticity(self):
         """The elasticity as a UFL matrix: constant, or per cell from its layer's (layered soil)."""
@@ -621,7 +615,7 @@ class SteadyRolling:
         self._F = fem.form(ufl.inner(self._sigma, eps_v) * dx - ufl.inner(self._traction, v) * ds_rear + load)
         self._Jv = fem.form(ufl.inner(self._dsigma, eps_v) * dx - ufl.inner(self._dtraction, v) * ds_rear)
         self._load = fem.form(load)
-        Dm = self._elasticity()
+        Dm = self._elastic_ufl
         K = fpetsc.assemble_matrix(fem.form(ufl.inner(ufl.dot(Dm, self._eps_w), eps_v) * dx), bcs=self.bcs)
         K.assemble()
         self._b = compat.create_vector(self._F)
@@ -635,7 +629,7 @@ class SteadyRolling:
         self.preconditioner = preconditioner
         self._tangent_form = None
         nc = self.ncomp
-        Ct = self._elasticity()
+        Ct = self._elastic_ufl
         if preconditioner == "tangent":
             self._tangent_fn = fem.Function(compat.quadrature_space(self.mesh, self.qdeg, (nc * nc,)))
             Ct = ufl.as_matrix([[self._tangent_fn[i * nc + j] for j in range(nc)] for i in range(nc)])
@@ -1040,8 +1034,13 @@ class SteadyRolling:
         """Back to the undisturbed soil under the wheel touching it (spin 1): the next
         :meth:`solve_sinkage` continues from there (e.g. the next pass, on another inflow)."""
         self.u.x.array[:] = 0.0
-        self.spin, self._last_sinkage = 1.0, None
-        self._converged = [(0.0, self.u.x.array.copy(), self.spin)] if self.wheel is not None else []
+        #: the wheel's dimensionless spin ``xi = omega R / V`` (-; ``omega`` in the rolling sense, 1:
+        #: rolling without slip on a rigid surface)
+        self.spin = 1.0
+        self._last_sinkage: float | None = None
+        #: the sinkage, displacement and spin of the last two sinkages solved (the predictor's secant)
+        self._converged: list[tuple[float, np.ndarray, float]] = \
+            [(0.0, self.u.x.array.copy(), self.spin)] if self.wheel is not None else []
 
     def _predict(self, sinkage: float) -> None:
         """Secant predictor: when the displacement is that of the last sinkage solved and the two

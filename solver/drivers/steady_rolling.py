@@ -140,14 +140,15 @@ def run_steady(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_o
     line = _centre_line(steady, rows[-1]["sinkage_m"]) if rows else None
     summary = _summary(scene, steady, window, rows, results.get("last"), line, status, reason, diagnostics,
                        t_start, dofs, alpha)
-    if len(passes) > 1 or (scene.loading.passes or 1) > 1:
+    several = (scene.loading.passes or 1) > 1
+    if several:
         summary.update(_passes_summary(passes))
     if rows:
         _write_rut(out, line, scene, summary, comm)
         if write_fields:
             _write_fields(out, steady)
             summary["files"]["fields"] = ["fields/steady.xdmf"]
-    if passes and "rut_depth_m" in summary and (scene.loading.passes or 1) > 1:
+    if several and passes and "rut_depth_m" in summary:
         summary["rut_depth_m"] = passes[-1]["total_rut_m"]        # of all passes (the profile: the last's)
     return finish_run(out, rows, scene, summary, comm, progress=progress)
 
