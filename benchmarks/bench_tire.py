@@ -1,4 +1,4 @@
-"""The pneumatic tire on rigid ground, on clay and towed; three problems.
+"""The pneumatic tire on rigid ground, on clay and towed; four problems.
 
 ``ground``: the tire on rigid flat ground: load against deflection at several inflation pressures.
 
@@ -12,6 +12,17 @@ until it touches, then pressed by its hub to ``--deflection`` (m).  Prints, per 
 the whole-tire load Q at a third, two thirds and all of the deflection (interpolated), the contact area A and
 the carcass's share 1 - p A / Q at the end, the inflated growth of the tread, Newton iterations
 and wall time.
+
+``calibrate``: the carcass modulus from a load-deflection target on rigid ground.
+
+    python -m benchmarks tire calibrate --E 100 200 400 800 --size 0.15 --check
+
+The same tire as ``ground`` inflated to ``--pressure`` kPa (default 650) and pressed by its hub
+``--deflection`` m (default 0.16) for each carcass modulus ``--E`` (MPa): the deflection where it
+carries ``--load`` kN (default 133.5, the whole tire's), the contact area and carcass share
+1 - p A / Q there, the tread's growth on inflation; then, per element size, the modulus of each
+``--targets`` deflection (mm, default 70 90 110), interpolated in log E between the samples that
+bracket it, and with ``--check`` the deflection a run at that modulus gives.
 
 ``soil``: the tire against the rigid wheel on a clay, and the tire's mesh convergence on soil.
 
@@ -74,6 +85,7 @@ from rollsim.geometry import (CylinderWheel, MeshOptions, build_soil_block, buil
 from rollsim.scene import load_scene
 from rollsim.solver import StepControl, VonMises, WheelIndentation
 from rollsim.solver.carcass import Carcass, NeoHookean
+from rollsim.solver.stepping import SolverDivergedError
 from rollsim.solver.options import VOLUMETRIC_STRAINS
 from rollsim.solver.pneumatic import PneumaticIndentation
 from rollsim.solver.run import run_scene
@@ -130,6 +142,92 @@ def ground(argv: list[str] | None = None) -> int:
                       f"| {1 - r['pressure'] * end['A'] / end['Q']:.2f} | {r['newton_iterations']} "
                       f"| {r['time_s']:.0f} |", flush=True)
     dump_json(comm, args.out, {"args": vars(args), "rows": rows})
+    return 0
+
+
+def at_load(curve: list[dict], load: float) -> dict | None:
+    """The deflection (m) and contact area (m^2) where the pressing ``curve`` first carries
+    ``load`` (N), interpolated linearly; None if it never does."""
+    defl = [0.0] + [c["deflection"] for c in curve]
+    force = [0.0] + [c["Q"] for c in curve]
+    area = [0.0] + [c["A"] for c in curve]
+    for k in range(1, len(force)):
+        if force[k] >= load:
+            w = (load - force[k - 1]) / (force[k] - force[k - 1])
+            return {"deflection": defl[k - 1] + w * (defl[k] - defl[k - 1]),
+                    "A": area[k - 1] + w * (area[k] - area[k - 1])}
+    return None
+
+
+def modulus_for(samples: list[tuple[float, float]], target: float) -> float | None:
+    """The carcass modulus (Pa) whose deflection is ``target`` (m), from ``samples`` of (modulus,
+    deflection at the load): log-linear between the two samples that bracket it; None outside."""
+    pts = sorted(samples)
+    for (e0, d0), (e1, d1) in zip(pts, pts[1:]):
+        if min(d0, d1) <= target <= max(d0, d1) and d0 != d1:
+            w = (target - d0) / (d1 - d0)
+            return float(np.exp(np.log(e0) + w * (np.log(e1) - np.log(e0))))
+    return None
+
+
+def calibrate(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(prog="python -m benchmarks tire calibrate",
+                                description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--E", type=float, nargs="+", default=[100.0, 200.0, 400.0, 800.0],
+                   help="carcass Young's moduli sampled, MPa")
+    p.add_argument("--pressure", type=float, default=650.0, help="inflation, kPa")
+    p.add_argument("--load", type=float, default=133.5, help="wheel load, kN")
+    p.add_argument("--targets", type=float, nargs="+", default=[70.0, 90.0, 110.0],
+                   help="deflections at the load, mm")
+    p.add_argument("--size", type=float, nargs="+", default=[0.15], help="element size, m")
+    p.add_argument("--deflection", type=float, default=0.16, help="hub travel after touching, m")
+    p.add_argument("--check", action="store_true",
+                   help="run each target's interpolated modulus and print its deflection")
+    p.add_argument("--out")
+    args = p.parse_args(argv)
+    comm = MPI.COMM_WORLD
+    load, kpa = args.load * 1e3, args.pressure * 1e3
+    rows = []
+
+    def one(size: float, young: float, role: str) -> dict | None:
+        try:
+            r = run(comm, kpa, size, young, args.deflection)
+        except SolverDivergedError as err:
+            if comm.rank == 0:
+                print(f"| {size:g} | {young / 1e6:.0f} | {role} | failed: {err} |", flush=True)
+            return None
+        hit = at_load(r["curve"], load)
+        r.update(role=role, at_load=hit)
+        rows.append(r)
+        if comm.rank == 0:
+            if hit is None:
+                print(f"| {size:g} | {young / 1e6:.1f} | {role} | > {1e3 * args.deflection:.0f} | | | "
+                      f"{1e3 * r['growth']:.1f} | {r['newton_iterations']} | {r['time_s']:.0f} |", flush=True)
+            else:
+                print(f"| {size:g} | {young / 1e6:.1f} | {role} | {1e3 * hit['deflection']:.1f} | {hit['A']:.4f} "
+                      f"| {1 - kpa * hit['A'] / load:.2f} | {1e3 * r['growth']:.1f} | {r['newton_iterations']} "
+                      f"| {r['time_s']:.0f} |", flush=True)
+        dump_json(comm, args.out, {"args": vars(args), "rows": rows})
+        return hit
+
+    if comm.rank == 0:
+        print(f"Mn/DOT-size tire at {args.pressure:g} kPa on rigid ground, deflection at {args.load:g} kN\n\n"
+              "| element (m) | carcass E (MPa) | run | deflection (mm) | contact area (m²) | carcass share 1 - pA/Q "
+              "| tread growth (mm) | Newton its | wall (s) |\n|---|---|---|---|---|---|---|---|---|", flush=True)
+    for size in args.size:
+        samples = []
+        for mpa in args.E:
+            hit = one(size, mpa * 1e6, "sample")
+            if hit is not None:
+                samples.append((mpa * 1e6, hit["deflection"]))
+        found = {t: modulus_for(samples, t * 1e-3) for t in args.targets}
+        if comm.rank == 0:
+            print("\n" + "; ".join(f"{t:g} mm: " + ("outside the samples" if e is None else f"E = {e / 1e6:.0f} MPa")
+                                    for t, e in found.items()) + f" (element {size:g} m)\n", flush=True)
+        if args.check:
+            for t, e in found.items():
+                if e is not None:
+                    one(size, e, f"{t:g} mm")
     return 0
 
 
@@ -373,4 +471,4 @@ def rolling(argv: list[str] | None = None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(run_problems({"ground": ground, "soil": soil, "rolling": rolling}, __doc__))
+    sys.exit(run_problems({"ground": ground, "calibrate": calibrate, "soil": soil, "rolling": rolling}, __doc__))

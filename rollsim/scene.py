@@ -29,6 +29,9 @@ WHEEL_TYPES = ("rigid", "pneumatic")
 WHEEL_SHAPES = ("cylinder", "torus")
 SOIL_MODELS = ("von-mises", "drucker-prager", "mohr-coulomb")
 TREAD_THICKNESS_RATIO = 0.046  # t_tread / d of the report's tire
+#: the carcass's Young's modulus (Pa) that makes the Mn/DOT-size tire at 650 kPa deflect 90 mm on
+#: rigid ground under 133.5 kN (docs/tire.md: the target, its band and the calibration)
+DEFAULT_E_CARCASS = 78e6
 
 
 @dataclass(frozen=True)
@@ -262,7 +265,7 @@ def _wheel(t: _Table) -> WheelSpec:
             raise InputError(t.key("shape"), "applies to rigid wheels only")
         tire = dict(hub_diameter=t.quantity("hub_diameter", LENGTH, required=True, positive=True),
                     inflation=t.quantity("inflation", PRESSURE, required=True, positive=True),
-                    E_carcass=t.quantity("E_carcass", PRESSURE, required=True, positive=True),
+                    E_carcass=t.quantity("E_carcass", PRESSURE, default=DEFAULT_E_CARCASS, positive=True),
                     nu_carcass=t.quantity("nu_carcass", DIMENSIONLESS, default=0.45),
                     t_tread=t.quantity("t_tread", LENGTH, default=TREAD_THICKNESS_RATIO * d, positive=True))
         if not tire["hub_diameter"] < d - 2 * tire["t_tread"]:

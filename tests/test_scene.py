@@ -2,11 +2,12 @@
 import json
 import math
 import pathlib
+import tomllib
 
 import pytest
 
 from rollsim.cli import main
-from rollsim.scene import load_scene, parse_scene
+from rollsim.scene import DEFAULT_E_CARCASS, load_scene, parse_scene
 from rollsim.units import InputError
 
 EXAMPLES = pathlib.Path(__file__).parents[1] / "examples"
@@ -45,6 +46,10 @@ def test_examples_load():
     towed = scenes["pneumatic_rolling.toml"]
     assert towed.wheel.type == "pneumatic" and towed.loading.protocol == "rolling-constant-load"
     assert towed.model.accuracy == "fast" and towed.model.volumetric_strain == "cell-average"   # hexahedra: Q2-P1
+    assert towed.wheel.E_carcass == 50e6                            # given: softer than the default
+    tire = tomllib.loads((EXAMPLES / "pneumatic_rolling.toml").read_text())
+    del tire["wheel"]["E_carcass"]
+    assert parse_scene(tire).wheel.E_carcass == DEFAULT_E_CARCASS == 78e6   # the calibrated modulus, docs/tire.md
 
 
 def test_si_conversion_and_defaults():
