@@ -1,4 +1,4 @@
-"""Steady rolling (rollsim.solver.steady), four problems:
+"""Steady rolling (rollsim.solver.steady), five problems:
 
 ``hertz``: against transient rolling on the same elements, plane strain, a Hertz line pressure
 (half-width a = 1 m) on von Mises soil (E = 1000 Pa, nu = 0.3, k = 1 Pa).  The steady solve in its
@@ -31,16 +31,28 @@ same axle height over a block of the same cells (the window with its fine zone s
 ``--travel``; faces and base held), in travel steps of ``--step`` cells: Q_V and Q_H per metre
 and the highest heave ahead of the wheel, the transient's every ``--every`` m of travel.
 
+``window``: the frictionless Mn/DOT roller (d = 1.524 m, b = 0.4572 m) held at each ``--sinkage``
+in turn over the report's case-5 soil (Drucker-Prager, E = 40 MPa, nu = 0.35, phi_dp = 27.5 deg,
+c_dp = 194.6 kPa, gamma = 20 kN/m^3), 3D half window of ``rollsim run``'s steady driver on the
+``--accuracy`` preset, its side face ``--beside`` d from the wheel's edge (each value its own
+run; the other extents the driver's): Q_V, Q_H, the Newton iterations of the last solve, the
+steps cut on the way (a failed step halved) and the wall time.  With ``--load`` (kN) the roller
+is towed (``--friction``) at that load through the steady driver instead (``rollsim run``'s
+``rolling-constant-load``): its steady sinkage, Q_H, rut, Newton iterations and wall time.
+
     python -m benchmarks steady hertz [--p0 3.6 4.5] [--cells-per-half-width 4]
         [--travel 14] [--step 0.0625] [--distance 5] [--out bench_steady.json]
     mpirun -n 2 python -m benchmarks steady ranks [--cells-per-half-width 2] [--sinkage 2.5 5]
     python -m benchmarks steady towed [--soil clay] [--sinkage 2 3 4] [--cells-per-half-width 4]
     python -m benchmarks steady wheel [--soil case5] [--sinkage 4 6] [--travel 4] [--cells-per-half-width 4]
+    mpirun -n 2 python -m benchmarks steady window [--accuracy standard] [--beside 0.3 0.6]
+        [--sinkage 3.05 7.62 10.67] [--load 133.5 --friction 0.8]
 """
 from __future__ import annotations
 
 import argparse
 from dataclasses import replace
+import logging
 import math
 import pathlib
 import sys
@@ -56,7 +68,7 @@ from test_steady_rolling import (CLAY_3D, K, NEVER_YIELDS, ROLLER, SOIL, differe
 
 from _bench import dump_json  # noqa: E402
 from rollsim.solver.materials import DruckerPrager, VonMises  # noqa: E402
-from rollsim.solver.steady import RollingWindow, SteadyRolling, rolling_window_mesh  # noqa: E402
+from rollsim.solver.steady import NoSteadyState, RollingWindow, SteadyRolling, rolling_window_mesh  # noqa: E402
 
 
 def main() -> int:
@@ -83,9 +95,15 @@ def main() -> int:
     wheel.add_argument("--step", type=float, default=0.25, help="the transient roll's travel step, in cells")
     wheel.add_argument("--every", type=float, default=0.5, help="m of travel between the transient's rows")
     wheel.add_argument("--cells-per-half-width", type=int, default=4, help="cells per 0.1524 m")
+    extent = sub.add_parser("window", help="3D roller on the case-5 soil: the side face's distance")
+    extent.add_argument("--accuracy", default="standard", help="the preset of the cells")
+    extent.add_argument("--beside", type=float, nargs="+", default=[0.3, 0.6], help="side face from the wheel's edge, d")
+    extent.add_argument("--sinkage", type=float, nargs="+", default=[3.05, 7.62, 10.67], help="mm, in turn")
+    extent.add_argument("--load", type=float, help="kN: towed at this load through the steady driver")
+    extent.add_argument("--friction", type=float, default=0.8, help="with --load: the Coulomb coefficient")
     args = ap.parse_args()
     run = {"hertz": hertz_against_transient, "ranks": distributed_against_serial, "towed": towed_surface_layer,
-           "wheel": steady_against_transient}
+           "wheel": steady_against_transient, "window": side_face}
     return run[args.problem](args)
 
 
@@ -97,7 +115,6 @@ TOWED_SOILS = {"clay": VonMises(E=40e6, nu=0.35, yield_stress=200e3),
 def towed_surface_layer(args) -> int:
     """The ``towed`` problem (module docstring)."""
     from rollsim.solver.contact import Circle
-    from rollsim.solver.steady import NoSteadyState
     soil, R = TOWED_SOILS[args.soil], 0.762
     window = RollingWindow(half_width=0.06, ahead=0.9, behind=1.2, depth=0.9,
                            cells_per_half_width=args.cells_per_half_width)
@@ -195,6 +212,96 @@ def transient_roll(window: RollingWindow, soil, R: float, sinkage: float, travel
                     StepControl(t_end=cells * h, dt=ds, dt_max=ds, dt_min=ds / 64, easy_iterations=1000),
                     on_step=record)
     return rows
+
+
+class _Cuts(logging.Handler):
+    """Counts the steady solver's step cuts (its log lines)."""
+
+    def __init__(self):
+        super().__init__(logging.INFO)
+        self.count = 0
+
+    def emit(self, record):
+        self.count += "cutting the step" in record.getMessage()
+
+
+def side_face(args) -> int:
+    """The ``window`` problem (module docstring)."""
+    from rollsim.log import get_logger
+    from rollsim.scene import parse_scene
+    from rollsim.solver.drivers.steady_rolling import steady_window
+    from rollsim.solver.scene_model import layer_materials, wheel_geometry
+    comm = MPI.COMM_WORLD
+    scene = parse_scene({"wheel": {"diameter": "1.524 m", "width": "0.4572 m",
+                                   "friction": 0 if args.load is None else args.friction},
+                         "soil": {"gamma": "20 kN/m^3", "layers": [{"model": "drucker-prager", "E": "40 MPa",
+                                                                    "nu": 0.35, "phi_dp": "27.5 deg",
+                                                                    "c_dp": "194.6 kPa"}]},
+                         "loading": {"protocol": "rolling-constant-load", "load": f"{args.load or 133.5} kN"},
+                         "model": {"rolling": "steady", "accuracy": args.accuracy}})
+    if args.load is not None:
+        return _towed_at_load(scene, args.beside, comm)
+    cuts = _Cuts()
+    solver_log = get_logger("solver")
+    solver_log.addHandler(cuts)
+    solver_log.setLevel(logging.INFO)
+    for beside in args.beside:
+        window = steady_window(scene, {"beside": beside})
+        t0 = time.perf_counter()
+        st = SteadyRolling(rolling_window_mesh(comm, window), layer_materials(scene).by_layer[1],
+                           wheel=wheel_geometry(scene.wheel), unit_weight=scene.soil.gamma,
+                           volumetric_strain=scene.model.volumetric_strain)
+        if comm.rank == 0:
+            print(f"side face {beside:g} d from the wheel's edge ({window.across:.3f} m from the centre), "
+                  f"{st.V.dofmap.index_map.size_global * st.gdim} dofs, {args.accuracy}\n"
+                  "  s (mm)  Q_V (kN)  Q_H (kN)  Newton  cuts  wall (s)", flush=True)
+        for s in args.sinkage:
+            before = cuts.count
+            try:
+                r = st.solve_sinkage(s * 1e-3)
+            except NoSteadyState as err:
+                if comm.rank == 0:
+                    print(f"  {s:6.2f}  no steady state: {err}", flush=True)
+                break
+            if comm.rank == 0:
+                print(f"  {s:6.2f}  {r.vertical_force / 1e3:8.2f}  {r.towing_force / 1e3:8.2f}  {r.newton_iterations:6d}  "
+                      f"{cuts.count - before:4d}  {time.perf_counter() - t0:8.1f}", flush=True)
+    solver_log.removeHandler(cuts)
+    return 0
+
+
+def _towed_at_load(scene, besides: list[float], comm) -> int:
+    """The ``window`` problem with ``--load``: the steady driver's constant-load run per side face."""
+    import csv
+    import shutil
+    import tempfile
+    from rollsim.solver.drivers.steady_rolling import run_steady
+    if comm.rank == 0:
+        print(f"towed at {scene.loading.load / 1e3:g} kN, mu = {scene.wheel.friction:g}, {scene.model.accuracy}\n"
+              "| side face from the wheel's edge (d) | dofs | status | sinkage (mm) | Q_H (kN) | rut (mm) | Newton its "
+              "| wall (s) |\n|---|---|---|---|---|---|---|---|", flush=True)
+    states = []
+    for beside in besides:
+        out = comm.bcast(tempfile.mkdtemp() if comm.rank == 0 else None)
+        try:
+            r = run_steady(scene, pathlib.Path(out) / "run", comm, progress=False, write_fields=False,
+                           window={"beside": beside})
+            if comm.rank == 0:
+                with open(pathlib.Path(out) / "run" / "history.csv") as f:
+                    states.append((beside, [(float(row["sinkage_m"]), float(row["QV_N"])) for row in csv.DictReader(f)]))
+        finally:
+            comm.barrier()
+            if comm.rank == 0:
+                shutil.rmtree(out)
+        if comm.rank == 0:
+            print(f"| {beside:g} | {r['dofs']} | {r['status']} | {1e3 * r['sinkage_m']:.2f} | {r['QH_N'] / 1e3:.2f} "
+                  f"| {1e3 * r.get('rut_depth_m', float('nan')):.2f} | {r['newton_iterations']} "
+                  f"| {r['wall_time_s']:.0f} |", flush=True)
+    if comm.rank == 0:
+        print("\nthe steady states on the way (sinkage mm: Q_V kN):")
+        for beside, rows in states:
+            print(f"  {beside:g} d: " + ", ".join(f"{1e3 * s:.2f}: {q / 1e3:.2f}" for s, q in rows), flush=True)
+    return 0
 
 
 def distributed_against_serial(args) -> int:
