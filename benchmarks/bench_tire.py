@@ -15,7 +15,7 @@ and wall time.
 
 ``calibrate``: the carcass modulus from a load-deflection target on rigid ground.
 
-    python -m benchmarks tire calibrate --E 100 200 400 800 --size 0.15 --check
+    python -m benchmarks tire calibrate --E 45 65 100 140 --size 0.15 --check
 
 The same tire as ``ground`` inflated to ``--pressure`` kPa (default 650) and pressed by its hub
 ``--deflection`` m (default 0.16) for each carcass modulus ``--E`` (MPa): the deflection where it
@@ -173,7 +173,7 @@ def modulus_for(samples: list[tuple[float, float]], target: float) -> float | No
 def calibrate(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(prog="python -m benchmarks tire calibrate",
                                 description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    p.add_argument("--E", type=float, nargs="+", default=[100.0, 200.0, 400.0, 800.0],
+    p.add_argument("--E", type=float, nargs="+", default=[45.0, 65.0, 100.0, 140.0],
                    help="carcass Young's moduli sampled, MPa")
     p.add_argument("--pressure", type=float, default=650.0, help="inflation, kPa")
     p.add_argument("--load", type=float, default=133.5, help="wheel load, kN")
@@ -194,7 +194,7 @@ def calibrate(argv: list[str] | None = None) -> int:
             r = run(comm, kpa, size, young, args.deflection)
         except SolverDivergedError as err:
             if comm.rank == 0:
-                print(f"| {size:g} | {young / 1e6:.0f} | {role} | failed: {err} |", flush=True)
+                print(f"| {size:g} | {young / 1e6:.1f} | {role} | failed: {err} |", flush=True)
             return None
         hit = at_load(r["curve"], load)
         r.update(role=role, at_load=hit)
