@@ -16,7 +16,6 @@ apt_packages=(
   python3-pytest python3-pytest-xdist python3-pytest-timeout python3-hypothesis python3-sphinx python3-myst-parser python3-venv python3-pip python3-wheel
   libegl1 libegl-mesa0 libgl1-mesa-dri   # off-screen rendering (VTK via EGL, llvmpipe)
   libopenblas0-pthread                   # optimised BLAS for MUMPS (reference BLAS is ~2x slower)
-  libblas3 liblapack3                    # reference BLAS: the tests repeat a rounding-sensitive run with it
 )
 
 missing=()
