@@ -391,8 +391,8 @@ def _rolling_cells(t: _Table, wheel: WheelSpec, loading: LoadingSpec,
 MAX_PASSES = 50
 
 #: the [model] keys of the transient rolling block and solver that a steady window does not use
-TRANSIENT_ONLY = ("cell_type", "elements_across_wheel", "elements_along_path", "relaxation_length",
-                  "relaxation_fallback", "travel_relaxation_fallback", "plateau_tolerance", "linear_solver")
+TRANSIENT_ONLY = ("cell_type", "elements_across_wheel", "elements_along_path", "relaxation_fallback",
+                  "travel_relaxation_fallback", "plateau_tolerance", "linear_solver")
 
 
 def _rolling_method(t: _Table, wheel: WheelSpec, soil: SoilSpec, loading: LoadingSpec) -> str:

@@ -60,7 +60,7 @@ from .contact import DEFAULT_PENALTY, Circle, ufl_signed_distance
 from .materials import admissible_k0
 from .options import DEFAULT_VOLUMETRIC_STRAIN, VOLUMETRIC_STRAINS
 from .problem import mandel_strain
-from .return_map import elastic_stiffness, return_map
+from .return_map import duvaut_lions, elastic_stiffness, return_map
 from .steady_friction import DEFAULT_TANGENTIAL_RATIO, SurfaceFriction, SurfaceRows
 
 __all__ = ["RollingWindow", "rolling_window_mesh", "NewtonKrylovControl", "StreamlineState",
@@ -440,7 +440,8 @@ class SteadyRolling:
                  quadrature_degree: int | None = None, unit_weight: float = 0.0, K0: float | None = None,
                  control: NewtonKrylovControl | None = None, petsc_options: dict | None = None,
                  options_prefix: str = "rollsim_steady_", preconditioner: str = "tangent",
-                 volumetric_strain: str = DEFAULT_VOLUMETRIC_STRAIN, interfaces=()):
+                 volumetric_strain: str = DEFAULT_VOLUMETRIC_STRAIN, interfaces=(),
+                 relaxation_length: float = 0.0):
         #: the soil's layers from the surface down and the depths of their boundaries (m)
         self.materials = tuple(material) if isinstance(material, (list, tuple)) else (material,)
         self.interfaces = np.asarray(interfaces, dtype=float).reshape(-1)
@@ -470,6 +471,8 @@ class SteadyRolling:
         self.surface = comm.allreduce(float(x[:, self._up].max()), MPI.MAX)
         self.base = comm.allreduce(float(x[:, self._up].min()), MPI.MIN)
         self._init_spaces(degree)
+        #: Duvaut-Lions relaxation length (m of travel; 0: rate-independent)
+        self.relaxation_length = float(relaxation_length)
         self.restart()
         ds = self._init_boundary()
         K = self._init_forms(ds, degree, penalty, unit_weight)
@@ -503,6 +506,9 @@ class SteadyRolling:
         #: coordinates of the quadrature points (m), in the quadrature spaces' order
         self.quadrature_coordinates = coords.reshape(self.n_qp, self.gdim)
         self._order, self.streamline_depths = self._streamlines()
+        x_stations = self.quadrature_coordinates[self._order[0], 0] if self._order.size else np.empty(0)
+        #: the travel (m) from the station before (the inflow face for the first) to each station
+        self._station_travel = -np.diff(x_stations, prepend=self.x_in)
         self._init_layers()
         self._strain_expr = compat.expression(mandel_strain(self.u, self.gdim), points)
         self._dstrain_expr = compat.expression(mandel_strain(self._du, self.gdim), points)
@@ -524,7 +530,9 @@ class SteadyRolling:
         #: the layer (index into :attr:`materials`) of each streamline
         self._row_layer = np.searchsorted(self.interfaces, self.streamline_depths)
         self._groups = [(m, np.flatnonzero(self._row_layer == k)) for k, m in enumerate(self.materials)]
-        self._groups = [(m, rows) for m, rows in self._groups if rows.size]
+        kept = [k for k, (m, rows) in enumerate(self._groups) if rows.size]
+        self._groups = [self._groups[k] for k in kept]
+        self._D_group = [self._D_layers[k] for k in kept]
         if len(self._groups) == 1:              # one material on every streamline: no gathering
             self._groups = [(self._groups[0][0], slice(None))]
         self._D_inv = np.linalg.inv(self._D_layers)[self._row_layer]          # (rows, ncomp, ncomp)
@@ -876,10 +884,15 @@ class SteadyRolling:
         S, EP = np.empty_like(strain), np.empty_like(strain)
         C, ACC = np.empty((rows, stations, self.ncomp, self.ncomp)), np.empty((rows, stations))
         previous = np.zeros((rows, self.ncomp))
+        relaxed = self.relaxation_length > 0
         for i in range(stations):
             deps = strain[:, i] - previous
-            for material, rows in self._groups:
+            for k, (material, rows) in enumerate(self._groups):
                 res = return_map(material, sigma[rows], deps[rows])
+                if relaxed:
+                    D = self._D_group[k]
+                    duvaut_lions(res, sigma[rows] + deps[rows] @ D.T, D,
+                                 self._station_travel[i] / self.relaxation_length)
                 sigma[rows] = res.sigma
                 eps_p[rows] += res.deps_p
                 acc[rows] += _SQ23 * np.linalg.norm(res.deps_p, axis=1)
@@ -1198,15 +1211,7 @@ class SteadyRolling:
             return self.solve_sinkage(sinkage, inflow)
 
         def solve_at(sinkage: float) -> SteadyRollingResult:
-            shallower = [s for s in known if s < sinkage]
-            if shallower:                   # the state solved there (a failed step is cut from it)
-                self._last_sinkage = max(shallower)
-                u, self.spin, _ = known[self._last_sinkage]
-                self.u.x.array[:] = u
-                # the predictor extrapolates from the two deepest states short of it
-                self._converged = [(s, known[s][0], known[s][1]) for s in sorted(shallower)[-2:]]
-            elif self._last_sinkage is not None and self._last_sinkage > sinkage:
-                self.u.x.array[:], self._last_sinkage = 0.0, None
+            self.continue_from(known, sinkage)
             result = solve(sinkage, inflow)
             known[result.sinkage] = (self.u.x.array.copy(), self.spin, result.vertical_force)
             return result
@@ -1223,6 +1228,20 @@ class SteadyRolling:
             result = solve_at(_next_sinkage({s: q for s, (_, _, q) in known.items()}, load))
         raise NoSteadyState(f"no sinkage carries the load {load:.6g} N/m: Q_V = {result.vertical_force:.6g} N/m "
                             f"after {max_iterations} solves")
+
+    def continue_from(self, states: dict, sinkage: float) -> None:
+        """Set up the next solve at ``sinkage`` (m) from ``states`` (sinkage -> (displacement
+        array, spin, Q_V) of converged states): from the deepest state short of it, with its spin
+        and the secant predictor of the two deepest (a failed step is cut from there); with none
+        short of it and the last solve deeper, from the undisturbed soil."""
+        shallower = [s for s in states if s < sinkage]
+        if shallower:
+            self._last_sinkage = max(shallower)
+            u, self.spin, _ = states[self._last_sinkage]
+            self.u.x.array[:] = u
+            self._converged = [(s, states[s][0], states[s][1]) for s in sorted(shallower)[-2:]]
+        elif self._last_sinkage is not None and self._last_sinkage > sinkage:
+            self.u.x.array[:], self._last_sinkage = 0.0, None
 
     def _load_norm(self) -> float:
         """Norm of the load vector (N/m) at the current displacement (the contact's depends on it)."""

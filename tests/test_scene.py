@@ -198,6 +198,9 @@ def test_steady_rolling_rules():
     layered["soil"]["layers"] = [{**BASE["soil"]["layers"][0], "thickness": "0.5 m"}, BASE["soil"]["layers"][0]]
     assert len(parse_scene(layered).soil.layers) == 2
     assert parse_scene(steady).loading.passes is None
+    relaxed = json.loads(json.dumps(steady))
+    relaxed["model"]["relaxation_length"] = "2 mm"
+    assert parse_scene(relaxed).model.relaxation_length == pytest.approx(2e-3)
     steady["loading"]["passes"] = 3
     assert parse_scene(steady).loading.passes == 3
     for bad in (0, 2.5, True, "3", 51):
@@ -223,7 +226,8 @@ def test_steady_rolling_rules():
                ("model.rolling", {"wheel": {**BASE["wheel"], "shape": "torus"}}),
                ("model.kinematics", {"model": {"rolling": "steady", "kinematics": "updated-lagrangian"}}),
                ("model.cell_type", {"model": {"rolling": "steady", "cell_type": "hexahedra"}}),
-               ("model.relaxation_length", {"model": {"rolling": "steady", "relaxation_length": "1 mm"}})]
+               ("model.travel_relaxation_fallback",
+                {"model": {"rolling": "steady", "travel_relaxation_fallback": "1 mm"}})]
     for field, change in refused:
         data = json.loads(json.dumps(steady))
         data.update(change)

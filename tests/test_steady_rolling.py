@@ -624,6 +624,37 @@ def test_constant_load_finds_the_sinkage_that_carries_it():
 
 
 @pytest.mark.serial
+def test_relaxation_converges_to_the_rate_independent_steady_state():
+    """Duvaut-Lions in the sweep (relaxation length L, m of travel): the cylinder held at 8 mm on
+    the von Mises soil dissipates less with the plastic flow lagging, so its towing force Q_H and
+    the largest accumulated plastic strain fall short of the rate-independent ones, first order
+    in L (measured: slope 1.00 over L = h/80 .. h/10, h the station spacing; Q_H 0.2 % short at
+    h/40); a very long L leaves the soil elastic (Q_V within 0.1 % of the elastic soil's, the
+    plastic strain under a hundredth of the rate-independent one)."""
+    window = RollingWindow(half_width=1.0, ahead=4.0, behind=6.0, depth=6.0, cells_per_half_width=2)
+    msh = rolling_window_mesh(MPI.COMM_SELF, window)
+
+    def held(material, length):
+        st = SteadyRolling(msh, material, wheel=WHEEL, relaxation_length=length)
+        for sinkage in (0.004, 0.008):
+            res = st.solve_sinkage(sinkage)
+        return res, float(np.min(st._station_travel))
+    ref, h = held(SOIL, 0.0)
+    lengths = h / np.array([80.0, 40.0, 20.0, 10.0])
+    relaxed = [held(SOIL, L)[0] for L in lengths]
+    for short in (np.array([ref.towing_force - r.towing_force for r in relaxed]),
+                  np.array([ref.max_accumulated_plastic_strain - r.max_accumulated_plastic_strain for r in relaxed])):
+        assert np.all(short > 0), short
+        order = np.polyfit(np.log(lengths), np.log(short), 1)[0]
+        assert 0.9 < order < 1.1, (short, order)
+    assert ref.towing_force - relaxed[1].towing_force < 0.005 * ref.towing_force
+    elastic, _ = held(NEVER_YIELDS, 0.0)
+    slow, _ = held(SOIL, 1e3 * h)
+    assert slow.vertical_force == pytest.approx(elastic.vertical_force, rel=1e-3)
+    assert slow.max_accumulated_plastic_strain < 1e-2 * ref.max_accumulated_plastic_strain
+
+
+@pytest.mark.serial
 @pytest.mark.slow
 def test_towed_wheel_at_constant_load():
     """The towed cylinder (mu = 0.3) on von Mises soil carrying 7 N/m: the sinkage's secant, each
@@ -962,6 +993,49 @@ def test_repeated_passes_of_the_towed_wheel(comm, tmp_mpi_path):
     assert summary["rut_depth_m"] == pytest.approx(passes[-1]["total_rut_m"])
     assert summary["shakedown"]["regime"] == "ratchetting"
     assert summary["shakedown"]["last_over_first_rut"] == pytest.approx(rut[1] / rut[0])
+
+
+def test_constant_load_steps_aim_at_the_load_and_halve_a_failed_step():
+    """The constant-load driver's sinkage steps on a Q_V(s) that bends over (Q_V ~ sqrt(s)): near
+    the load each step aims LOAD_OVERSHOOT times past the secant's sinkage, so the state that
+    passes the load lies within 10 % of its sinkage (growing steps alone: 30 % past it); a step
+    whose steady state is not found is tried again from the last state at half its length, and
+    a failure after STEP_CUTS halvings ends the run."""
+    from types import SimpleNamespace
+
+    from rollsim.solver.drivers import steady_rolling as drv
+    from rollsim.solver.steady import NoSteadyState
+    d, load = 1.0, 1.0e3
+    target = (load / 1.0e4) ** 2                     # Q_V = 1e4 sqrt(s): 0.01 m carries the load
+
+    def driver(fails_beyond=None, cuts=0):
+        tried, states, restarts = [], {}, []
+
+        def solve(s):
+            tried.append(s)
+            last = max(states, default=0.0)
+            if fails_beyond is not None and s > fails_beyond and s - last > 0.6e-3 and len(restarts) < cuts + 1:
+                raise NoSteadyState("stalled")
+            states[s] = (None, 1.0, 1.0e4 * s ** 0.5)
+            return SimpleNamespace(sinkage=s, vertical_force=states[s][2])
+        steady = SimpleNamespace(continue_from=lambda known, s: restarts.append((dict(known), s)),
+                                 solve_load=lambda *a, **k: SimpleNamespace(sinkage=target, vertical_force=load))
+        scene = SimpleNamespace(wheel=SimpleNamespace(diameter=d), loading=SimpleNamespace(load=load))
+        drv._constant_load(steady, scene, solve, states, None)
+        return tried, restarts
+
+    tried, restarts = driver()
+    assert not restarts and tried[-1] >= target and tried[-2] < target
+    assert tried[-1] < 1.1 * target
+    growing = np.cumsum(drv.FIRST_STEP * d * np.minimum(1.5 ** np.arange(20), drv.MAX_STEP / drv.FIRST_STEP))
+    assert growing[np.argmax(growing >= target)] > 1.3 * target
+    tried, restarts = driver(fails_beyond=0.005)
+    (known, failed), = restarts
+    k = tried.index(failed)
+    assert max(known) == tried[k - 1] and tried[k + 1] - tried[k - 1] == pytest.approx(0.5 * (failed - tried[k - 1]))
+    assert tried[-1] >= target
+    with pytest.raises(NoSteadyState, match="stalled"):
+        driver(fails_beyond=0.005, cuts=drv.STEP_CUTS)
 
 
 def test_regimes_of_repeated_passes():

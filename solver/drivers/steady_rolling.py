@@ -45,10 +45,15 @@ CURVE_POINTS = 10
 #: :data:`MAX_STEP` (x d)
 FIRST_STEP = 0.002
 MAX_STEP = 0.005
+#: a step near the load aims this many times as far as the secant of the last two states says
+#: the load lies (their Q_V(s) bends over: the secant falls short)
+LOAD_OVERSHOOT = 1.25
+#: how many times a sinkage step whose steady state is not found is halved
+STEP_CUTS = 2
 #: the window in wheel diameters: the fine zone's half length (also its depth and, from the wheel's
 #: edge, its reach across), the soil ahead of the axle, behind it, below the surface and across
 #: from the wheel's edge, and below the deepest layer interface (layered soil)
-WINDOW = {"half_width": 0.1, "ahead": 0.4, "behind": 0.6, "depth": 0.4, "beside": 0.3, "below_interface": 0.2}
+WINDOW = {"half_width": 0.1, "ahead": 0.4, "behind": 0.6, "depth": 0.4, "beside": 0.6, "below_interface": 0.2}
 
 
 def layer_interfaces(scene) -> tuple[float, ...]:
@@ -90,6 +95,7 @@ def run_steady(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_o
     steady = SteadyRolling(rolling_window_mesh(comm, window), materials, wheel=wheel, interfaces=window.interfaces,
                            friction=scene.wheel.friction, unit_weight=scene.soil.gamma,
                            volumetric_strain=scene.model.volumetric_strain, petsc_options=petsc_options,
+                           relaxation_length=scene.model.relaxation_length,
                            **({} if alpha is None else {"penalty": alpha}))
     dofs = steady.V.dofmap.index_map.size_global * steady.gdim
     if progress and comm.rank == 0:
@@ -157,15 +163,33 @@ def _constant_load(steady: SteadyRolling, scene, solve, states: dict, inflow):
     """The towed wheel at ``loading.load`` on the soil entering in the state ``inflow``: sinkage
     steps of :data:`FIRST_STEP` d (growing by half per step up to :data:`MAX_STEP` d) until Q_V
     passes the load, then :meth:`SteadyRolling.solve_load` inside that bracket from the ``states``
-    solved (to :data:`LOAD_RTOL`)."""
+    solved (to :data:`LOAD_RTOL`).  Near the load a step aims :data:`LOAD_OVERSHOOT` times as far
+    as the sinkage where the secant of the last two states carries it (the undisturbed surface,
+    Q_V = 0, counts as one; not less than a tenth of the first step); a step whose steady state is
+    not found is halved from the last state, :data:`STEP_CUTS` times at most in all."""
     d, load = scene.wheel.diameter, scene.loading.load
-    step, sinkage = FIRST_STEP * d, 0.0
+    step, sinkage, cuts = FIRST_STEP * d, 0.0, 0
+    last = [(0.0, 0.0)]                     # (sinkage, Q_V) of the last two states
     while True:
         if sinkage + step > 0.25 * d:
             raise NoSteadyState(f"no steady state carries Q_V = {load / 1e3:g} kN down to the sinkage d/4 = "
                                 f"{0.25 * d:g} m: the wheel would plough on")
-        res = solve(sinkage + step)
+        if len(last) == 2 and last[1][1] > last[0][1]:
+            (s0, q0), (s1, q1) = last
+            aim = LOAD_OVERSHOOT * (load - q1) * (s1 - s0) / (q1 - q0)
+            step = min(step, max(aim, 0.1 * FIRST_STEP * d))
+        try:
+            res = solve(sinkage + step)
+        except NoSteadyState as err:
+            if cuts == STEP_CUTS or not states:
+                raise
+            cuts += 1
+            steady.continue_from(states, sinkage + step)
+            step *= 0.5
+            log.info("steady rolling: %s; the sinkage step halved to %.4g mm", err, 1e3 * step)
+            continue
         sinkage = res.sinkage
+        last = [*last, (sinkage, res.vertical_force)][-2:]
         if res.vertical_force >= load:
             break
         step = min(1.5 * step, MAX_STEP * d)
@@ -257,6 +281,7 @@ def _summary(scene, steady: SteadyRolling, window: RollingWindow, rows, last, li
                          "accuracy": scene.model.accuracy, "elements_per_d": scene.model.elements_per_d,
                          "cell_type": "hexahedron", "displacement_degree": 2, "kinematics": "small-strain",
                          "volumetric_strain": steady.volumetric_strain,
+                         "relaxation_length_m": steady.relaxation_length,
                          "contact": {"method": "penalty", "kappa_Pa_per_m": steady.kappa, "alpha": alpha,
                                      "friction": steady.friction, "tangential_ratio": steady.tangential_ratio},
                          "window_m": {"ahead": window.ahead, "behind": window.behind, "depth": window.depth,
