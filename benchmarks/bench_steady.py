@@ -40,6 +40,12 @@ steps cut on the way (a failed step halved) and the wall time.  With ``--load`` 
 is towed (``--friction``) at that load through the steady driver instead (``rollsim run``'s
 ``rolling-constant-load``): its steady sinkage, Q_H, rut, Newton iterations and wall time.
 
+``relaxed``: the same soil and window (``rollsim run``'s, side face 0.6 d), the roller towed (mu =
+0.8) at ``--load`` kN with the soil relaxed in the sweep by the first of ``--lengths`` (mm; the
+steady driver's sinkage steps), then each next length in turn from the state of the last, at the
+same load: the steady sinkage per relaxation length (its limit as the length goes to 0 is the
+rate-independent soil's).
+
     python -m benchmarks steady hertz [--p0 3.6 4.5] [--cells-per-half-width 4]
         [--travel 14] [--step 0.0625] [--distance 5] [--out bench_steady.json]
     mpirun -n 2 python -m benchmarks steady ranks [--cells-per-half-width 2] [--sinkage 2.5 5]
@@ -47,6 +53,8 @@ is towed (``--friction``) at that load through the steady driver instead (``roll
     python -m benchmarks steady wheel [--soil case5] [--sinkage 4 6] [--travel 4] [--cells-per-half-width 4]
     mpirun -n 2 python -m benchmarks steady window [--accuracy standard] [--beside 0.3 0.6]
         [--sinkage 3.05 7.62 10.67] [--load 133.5 --friction 0.8]
+    mpirun -n 2 python -m benchmarks steady relaxed [--accuracy fast] [--strain cell-average]
+        [--lengths 5 3.5 2.5 ...] [--load 133.5]
 """
 from __future__ import annotations
 
@@ -101,9 +109,16 @@ def main() -> int:
     extent.add_argument("--sinkage", type=float, nargs="+", default=[3.05, 7.62, 10.67], help="mm, in turn")
     extent.add_argument("--load", type=float, help="kN: towed at this load through the steady driver")
     extent.add_argument("--friction", type=float, default=0.8, help="with --load: the Coulomb coefficient")
+    relax = sub.add_parser("relaxed", help="3D roller on the case-5 soil at its load: the relaxation length lowered")
+    relax.add_argument("--accuracy", default="fast", help="the preset of the cells")
+    relax.add_argument("--strain", choices=("cell-average", "pointwise"), default="cell-average")
+    relax.add_argument("--lengths", type=float, nargs="+",
+                       default=[5.0, 3.5, 2.5, 1.75, 1.25, 0.9, 0.625, 0.44, 0.31, 0.22, 0.156, 0.11],
+                       help="relaxation lengths (mm), in turn")
+    relax.add_argument("--load", type=float, default=133.5, help="kN")
     args = ap.parse_args()
     run = {"hertz": hertz_against_transient, "ranks": distributed_against_serial, "towed": towed_surface_layer,
-           "wheel": steady_against_transient, "window": side_face}
+           "wheel": steady_against_transient, "window": side_face, "relaxed": relaxed_at_load}
     return run[args.problem](args)
 
 
@@ -267,6 +282,53 @@ def side_face(args) -> int:
                 print(f"  {s:6.2f}  {r.vertical_force / 1e3:8.2f}  {r.towing_force / 1e3:8.2f}  {r.newton_iterations:6d}  "
                       f"{cuts.count - before:4d}  {time.perf_counter() - t0:8.1f}", flush=True)
     solver_log.removeHandler(cuts)
+    return 0
+
+
+def relaxed_at_load(args) -> int:
+    """The ``relaxed`` problem (module docstring)."""
+    from rollsim.scene import parse_scene
+    from rollsim.solver.drivers.steady_rolling import LOAD_RTOL, TORQUE_RTOL, _constant_load, steady_window
+    from rollsim.solver.scene_model import layer_materials, scene_penalty, wheel_geometry
+    comm = MPI.COMM_WORLD
+    scene = parse_scene({"wheel": {"diameter": "1.524 m", "width": "0.4572 m", "friction": 0.8},
+                         "soil": {"gamma": "20 kN/m^3", "layers": [{"model": "drucker-prager", "E": "40 MPa",
+                                                                    "nu": 0.35, "phi_dp": "27.5 deg",
+                                                                    "c_dp": "194.6 kPa"}]},
+                         "loading": {"protocol": "rolling-constant-load", "load": f"{args.load} kN"},
+                         "model": {"rolling": "steady", "accuracy": args.accuracy, "volumetric_strain": args.strain}})
+    alpha = scene_penalty(scene, None)
+    t0 = time.perf_counter()
+    st = SteadyRolling(rolling_window_mesh(comm, steady_window(scene)), layer_materials(scene).by_layer[1],
+                       wheel=wheel_geometry(scene.wheel), friction=scene.wheel.friction, unit_weight=scene.soil.gamma,
+                       volumetric_strain=args.strain, relaxation_length=args.lengths[0] * 1e-3,
+                       **({} if alpha is None else {"penalty": alpha}))
+    if comm.rank == 0:
+        print(f"towed at {args.load:g} kN, mu = 0.8, {args.accuracy}, {args.strain}, "
+              f"{st.V.dofmap.index_map.size_global * st.gdim} dofs\n"
+              "| relaxation length (mm) | sinkage (mm) | Q_V (kN) | Q_H (kN) | Newton its (last solve) | wall (s) |\n"
+              "|---|---|---|---|---|---|", flush=True)
+    states: dict = {}
+
+    def solve(sinkage: float):
+        res = st.solve_free_rolling(sinkage, None, torque_rtol=TORQUE_RTOL)
+        states[res.sinkage] = (st.u.x.array.copy(), st.spin, res.vertical_force)
+        return res
+    res = None
+    for length in args.lengths:
+        st.relaxation_length = length * 1e-3
+        try:
+            res = _constant_load(st, scene, solve, states, st.inflow) if res is None else \
+                st.solve_load(scene.loading.load, None, initial_sinkage=res.sinkage, free_rolling=True,
+                              rtol=LOAD_RTOL, torque_rtol=TORQUE_RTOL)
+        except NoSteadyState as err:
+            if comm.rank == 0:
+                print(f"| {length:g} | no steady state: {err} | | | | |", flush=True)
+            break
+        if comm.rank == 0:
+            print(f"| {length:g} | {1e3 * res.sinkage:.3f} | {res.vertical_force / 1e3:.2f} | "
+                  f"{res.towing_force / 1e3:.2f} | {res.newton_iterations} | {time.perf_counter() - t0:.0f} |",
+                  flush=True)
     return 0
 
 

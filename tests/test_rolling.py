@@ -432,6 +432,7 @@ def test_travel_fallback_lets_non_associated_sand_roll(comm, tmp_mpi_path):
         assert "rate_independent_travel_failed_at_m" not in model, model
 
 
+@pytest.mark.serial      # the fallback's logic: no partition to compare
 def test_lift_off_after_a_relaxed_roll(comm, monkeypatch):
     """A roll whose first step fails (Newton made to fail once) starts over relaxed by its travel
     fallback (1 mm) to its end: the relaxed stretch is the whole roll, the failure is where it
