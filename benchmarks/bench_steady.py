@@ -240,20 +240,25 @@ class _Cuts(logging.Handler):
         self.count += "cutting the step" in record.getMessage()
 
 
+def _case5_roller(friction: float, load: float, **model):
+    """The Mn/DOT roller (``friction``, ``load`` kN) rolled steadily over the report's case-5 soil;
+    ``model``: its ``[model]`` keys besides ``rolling``."""
+    from rollsim.scene import parse_scene
+    return parse_scene({"wheel": {"diameter": "1.524 m", "width": "0.4572 m", "friction": friction},
+                        "soil": {"gamma": "20 kN/m^3", "layers": [{"model": "drucker-prager", "E": "40 MPa",
+                                                                   "nu": 0.35, "phi_dp": "27.5 deg",
+                                                                   "c_dp": "194.6 kPa"}]},
+                        "loading": {"protocol": "rolling-constant-load", "load": f"{load} kN"},
+                        "model": {"rolling": "steady", **model}})
+
+
 def side_face(args) -> int:
     """The ``window`` problem (module docstring)."""
     from rollsim.log import get_logger
-    from rollsim.scene import parse_scene
     from rollsim.solver.drivers.steady_rolling import steady_window
     from rollsim.solver.scene_model import layer_materials, wheel_geometry
     comm = MPI.COMM_WORLD
-    scene = parse_scene({"wheel": {"diameter": "1.524 m", "width": "0.4572 m",
-                                   "friction": 0 if args.load is None else args.friction},
-                         "soil": {"gamma": "20 kN/m^3", "layers": [{"model": "drucker-prager", "E": "40 MPa",
-                                                                    "nu": 0.35, "phi_dp": "27.5 deg",
-                                                                    "c_dp": "194.6 kPa"}]},
-                         "loading": {"protocol": "rolling-constant-load", "load": f"{args.load or 133.5} kN"},
-                         "model": {"rolling": "steady", "accuracy": args.accuracy}})
+    scene = _case5_roller(0 if args.load is None else args.friction, args.load or 133.5, accuracy=args.accuracy)
     if args.load is not None:
         return _towed_at_load(scene, args.beside, comm)
     cuts = _Cuts()
@@ -287,16 +292,10 @@ def side_face(args) -> int:
 
 def relaxed_at_load(args) -> int:
     """The ``relaxed`` problem (module docstring)."""
-    from rollsim.scene import parse_scene
     from rollsim.solver.drivers.steady_rolling import LOAD_RTOL, TORQUE_RTOL, _constant_load, steady_window
     from rollsim.solver.scene_model import layer_materials, scene_penalty, wheel_geometry
     comm = MPI.COMM_WORLD
-    scene = parse_scene({"wheel": {"diameter": "1.524 m", "width": "0.4572 m", "friction": 0.8},
-                         "soil": {"gamma": "20 kN/m^3", "layers": [{"model": "drucker-prager", "E": "40 MPa",
-                                                                    "nu": 0.35, "phi_dp": "27.5 deg",
-                                                                    "c_dp": "194.6 kPa"}]},
-                         "loading": {"protocol": "rolling-constant-load", "load": f"{args.load} kN"},
-                         "model": {"rolling": "steady", "accuracy": args.accuracy, "volumetric_strain": args.strain}})
+    scene = _case5_roller(0.8, args.load, accuracy=args.accuracy, volumetric_strain=args.strain)
     alpha = scene_penalty(scene, None)
     t0 = time.perf_counter()
     st = SteadyRolling(rolling_window_mesh(comm, steady_window(scene)), layer_materials(scene).by_layer[1],
