@@ -48,7 +48,7 @@ from .newton import (REASON_PETSC_ERROR, REASON_RETURN_MAP, STAGNATION, Border, 
                      ReturnMapError)
 from .options import (DEFAULT_VOLUMETRIC_STRAIN, KINEMATICS, LINEAR_SOLVERS, PLATEAU_RTOL, VOLUMETRIC_STRAINS,
                       check_choice)
-from .return_map import (APEX, ELASTIC, PLASTIC, ReturnResult, duvaut_lions, elastic_stiffness, return_map,
+from .return_map import (APEX, ELASTIC, PLASTIC, ReturnResult, elastic_stiffness, relax_return, return_map,
                          yield_function)
 
 __all__ = ["NewtonReport", "PlasticityProblem", "mandel_strain", "DEFAULT_PETSC_OPTIONS", "PLATEAU_RTOL",
@@ -505,8 +505,7 @@ class PlasticityProblem(NewtonDriver, LinearSolverChoice):
     def _relax(self, res: ReturnResult, sig_n: np.ndarray, deps: np.ndarray) -> None:
         """Duvaut-Lions step (:func:`~rollsim.solver.return_map.duvaut_lions`) with :attr:`relaxation`."""
         for mat, qp in self._groups:        # qp: the group's owned quadrature points
-            D = elastic_stiffness(mat, self.ncomp)
-            duvaut_lions(res, sig_n[qp] + deps[qp] @ D.T, D, self.relaxation, qp)
+            relax_return(mat, res, sig_n[qp], deps[qp], self.relaxation, qp)
 
     def counts(self) -> dict[str, int]:
         """Global numbers of elastic / plastic / apex quadrature points of the current state."""

@@ -39,7 +39,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["ELASTIC", "PLASTIC", "APEX", "ReturnResult", "return_map", "duvaut_lions", "elastic_stiffness",
+__all__ = ["ELASTIC", "PLASTIC", "APEX", "ReturnResult", "return_map", "duvaut_lions", "relax_return", "elastic_stiffness",
            "identity_vector", "deviatoric_projector", "invariants", "yield_function",
            "tensor_to_mandel", "mandel_to_tensor"]
 
@@ -252,3 +252,11 @@ def duvaut_lions(res: ReturnResult, sigma_trial: np.ndarray, D: np.ndarray, rela
         res.tangent[sel] = (1.0 - w) * D + w * res.tangent[sel]
     res.deps_p[sel] *= w
     res.dlam[sel] *= w
+
+
+def relax_return(material, res: ReturnResult, sigma_n: np.ndarray, deps: np.ndarray, relaxation: float,
+                 sel=slice(None)) -> None:
+    """:func:`duvaut_lions` after :func:`return_map` of ``material`` from ``sigma_n`` by ``deps``
+    (the points ``sel`` of ``res``): the trial stress and elasticity from the material."""
+    D = elastic_stiffness(material, sigma_n.shape[1])
+    duvaut_lions(res, sigma_n + deps @ D.T, D, relaxation, sel)

@@ -60,7 +60,7 @@ from .contact import DEFAULT_PENALTY, Circle, ufl_signed_distance
 from .materials import admissible_k0
 from .options import DEFAULT_VOLUMETRIC_STRAIN, VOLUMETRIC_STRAINS
 from .problem import mandel_strain
-from .return_map import duvaut_lions, elastic_stiffness, return_map
+from .return_map import elastic_stiffness, relax_return, return_map
 from .steady_friction import DEFAULT_TANGENTIAL_RATIO, SurfaceFriction, SurfaceRows
 
 __all__ = ["RollingWindow", "rolling_window_mesh", "NewtonKrylovControl", "StreamlineState",
@@ -530,9 +530,7 @@ class SteadyRolling:
         #: the layer (index into :attr:`materials`) of each streamline
         self._row_layer = np.searchsorted(self.interfaces, self.streamline_depths)
         self._groups = [(m, np.flatnonzero(self._row_layer == k)) for k, m in enumerate(self.materials)]
-        kept = [k for k, (m, rows) in enumerate(self._groups) if rows.size]
-        self._groups = [self._groups[k] for k in kept]
-        self._D_group = [self._D_layers[k] for k in kept]
+        self._groups = [(m, rows) for m, rows in self._groups if rows.size]
         if len(self._groups) == 1:              # one material on every streamline: no gathering
             self._groups = [(self._groups[0][0], slice(None))]
         self._D_inv = np.linalg.inv(self._D_layers)[self._row_layer]          # (rows, ncomp, ncomp)
@@ -887,12 +885,10 @@ class SteadyRolling:
         relaxed = self.relaxation_length > 0
         for i in range(stations):
             deps = strain[:, i] - previous
-            for k, (material, rows) in enumerate(self._groups):
+            for material, rows in self._groups:
                 res = return_map(material, sigma[rows], deps[rows])
                 if relaxed:
-                    D = self._D_group[k]
-                    duvaut_lions(res, sigma[rows] + deps[rows] @ D.T, D,
-                                 self._station_travel[i] / self.relaxation_length)
+                    relax_return(material, res, sigma[rows], deps[rows], self._station_travel[i] / self.relaxation_length)
                 sigma[rows] = res.sigma
                 eps_p[rows] += res.deps_p
                 acc[rows] += _SQ23 * np.linalg.norm(res.deps_p, axis=1)
