@@ -80,6 +80,10 @@ DEFAULT_STEADY_OPTIONS = {
     "pc_factor_mat_solver_type": "mumps",
 }
 
+#: how many times a step on a towed wheel's spin whose solve fails is halved before the sinkage
+#: counts as having no free-rolling steady state (each failure costs a whole Newton solve)
+SPIN_CUTS = 3
+
 #: Mandel components: plane strain [xx, yy, zz, sqrt2 xy]; 3D [xx, yy, zz, sqrt2 xy, sqrt2 yz, sqrt2 xz]
 NCOMP = {2: 4, 3: 6}
 _SQ2 = math.sqrt(2.0)
@@ -283,12 +287,16 @@ class NewtonKrylovControl:
     ``rtol`` times the load vector's; at most ``max_iterations`` Newton steps; each step
     backtracked (halved) down to ``min_step`` until the residual's norm decreases.  The
     preconditioner is factored at the first Newton step of a solve and again after a step whose
-    GMRES needed more than ``refactor_iterations`` iterations (0: at every step)."""
+    GMRES needed more than ``refactor_iterations`` iterations (0: at every step).  GMRES stops
+    at the relative tolerance of the options (``ksp_rtol``) or, with ``forcing`` > 0, at the
+    Eisenstat-Walker forcing term (choice 2: 0.9 times the square of the residual's last
+    reduction, kept between ``ksp_rtol`` and ``forcing``; the first step ``forcing``)."""
 
     rtol: float = 1e-8
     max_iterations: int = 30
     min_step: float = 1.0 / 64
     refactor_iterations: int = 30
+    forcing: float = 0.1
 
     def __post_init__(self):
         if not 0 < self.rtol < 1:
@@ -299,6 +307,8 @@ class NewtonKrylovControl:
             raise ValueError(f"min_step must lie in (0, 1], got {self.min_step!r}")
         if not (isinstance(self.refactor_iterations, int) and self.refactor_iterations >= 0):
             raise ValueError(f"refactor_iterations must be an integer >= 0, got {self.refactor_iterations!r}")
+        if not 0 <= self.forcing < 1:
+            raise ValueError(f"forcing must lie in [0, 1), got {self.forcing!r}")
 
 
 @dataclass(frozen=True)
@@ -483,6 +493,7 @@ class SteadyRolling:
         self.petsc_options = {**DEFAULT_STEADY_OPTIONS, **(petsc_options or {})}
         self.options_prefix = options_prefix
         self._ksp = self._krylov_solver()
+        self._krylov_rtol = self._ksp.getTolerances()[0]
         self._fields: tuple | None = None
         self._counts = {"sweeps": 0, "krylov": 0}
 
@@ -509,6 +520,8 @@ class SteadyRolling:
         x_stations = self.quadrature_coordinates[self._order[0], 0] if self._order.size else np.empty(0)
         #: the travel (m) from the station before (the inflow face for the first) to each station
         self._station_travel = -np.diff(x_stations, prepend=self.x_in)
+        #: the shortest travel between two stations of a streamline (m, all ranks')
+        self.station_spacing = self.comm.allreduce(float(self._station_travel.min(initial=np.inf)), MPI.MIN)
         self._init_layers()
         self._strain_expr = compat.expression(mandel_strain(self.u, self.gdim), points)
         self._dstrain_expr = compat.expression(mandel_strain(self._du, self.gdim), points)
@@ -1141,7 +1154,7 @@ class SteadyRolling:
             if not math.isfinite(step):
                 break
             u = self.u.x.array.copy()
-            while True:
+            for cut in range(SPIN_CUTS + 1):
                 self.spin = result.spin + step
                 self.u.x.array[:] = u + step * sensitivity
                 try:
@@ -1150,7 +1163,7 @@ class SteadyRolling:
                 except NoSteadyState:
                     # the stick-slip pattern jumped too far: back to the last state, half the step
                     step *= 0.5
-                    if abs(step) < 1e-9:
+                    if cut == SPIN_CUTS:
                         self.u.x.array[:], self.spin = u, result.spin
                         raise
             result = trial
@@ -1270,22 +1283,23 @@ class SteadyRolling:
             if self.wheel is not None or self._tangent_form is not None:
                 # the factorization is kept while GMRES converges quickly on it (the action is exact)
                 self._update_preconditioner(it == 0 or self._ksp.getIterationNumber() > self.control.refactor_iterations)
-            rhs = b.copy()
-            rhs.scale(-1.0)
-            du = self._krylov(rhs, scale)
-            rhs.destroy()
-            u0, alpha = self.u.x.array.copy(), 1.0
+            eta = self._krylov_rtol
+            if ctl.forcing:                         # Eisenstat-Walker (choice 2, gamma 0.9, alpha 2)
+                eta = ctl.forcing if len(history) == 1 else \
+                    min(ctl.forcing, max(0.9 * (history[-1] / history[-2]) ** 2, self._krylov_rtol))
+            u0 = self.u.x.array.copy()
             while True:
-                self.u.x.array[:] = u0 + alpha * du
-                b = self.residual(inflow)
-                trial = b.norm()
-                if trial <= (1.0 - 1e-4 * alpha) * norm:       # False for a NaN residual
+                # a loose direction that no step along lowers the residual is solved again tightly
+                trial, alpha = self._line_search(inflow, b, norm, scale, eta, u0)
+                if trial is not None or eta == self._krylov_rtol:
                     break
-                alpha *= 0.5
-                if alpha < ctl.min_step:
-                    self._fail(load_text, f"no Newton step lowers the residual ({norm / scale:.2e} of the "
-                                          f"load's after {it} iterations)")
-            norm = trial
+                self.u.x.array[:] = u0
+                b = self.residual(inflow)
+                eta = self._krylov_rtol
+            if trial is None:
+                self._fail(load_text, f"no Newton step lowers the residual ({norm / scale:.2e} of the "
+                                      f"load's after {it} iterations)")
+            b, norm = trial
             if self.wheel is not None:
                 scale = self._load_norm()
             it += 1
@@ -1300,6 +1314,25 @@ class SteadyRolling:
                                    max_accumulated_plastic_strain=self.comm.allreduce(float(ACC.max(initial=0.0)),
                                                                                       MPI.MAX),
                                    residual_norms=history)
+
+    def _line_search(self, inflow, b: PETSc.Vec, norm: float, scale: float, eta: float, u0: np.ndarray):
+        """The Newton step from ``u0`` (residual ``b``, its norm ``norm``) with GMRES to the
+        relative tolerance ``eta``, backtracked (halved) until the residual's norm decreases:
+        ((residual, norm), step length), or (None, None) below ``control.min_step``."""
+        rhs = b.copy()
+        rhs.scale(-1.0)
+        self._ksp.setTolerances(rtol=eta)
+        du = self._krylov(rhs, scale)
+        rhs.destroy()
+        alpha = 1.0
+        while alpha >= self.control.min_step:
+            self.u.x.array[:] = u0 + alpha * du
+            b = self.residual(inflow)
+            trial = b.norm()
+            if trial <= (1.0 - 1e-4 * alpha) * norm:       # False for a NaN residual
+                return (b, trial), alpha
+            alpha *= 0.5
+        return None, None
 
     def _krylov(self, rhs: PETSc.Vec, scale: float) -> np.ndarray:
         """The full displacement increment ``P x`` of ``P^T J P x = rhs`` (GMRES, to the absolute
