@@ -1,4 +1,4 @@
-"""Steady rolling (rollsim.solver.steady), five problems:
+"""Steady rolling (rollsim.solver.steady), eight problems:
 
 ``hertz``: against transient rolling on the same elements, plane strain, a Hertz line pressure
 (half-width a = 1 m) on von Mises soil (E = 1000 Pa, nu = 0.3, k = 1 Pa).  The steady solve in its
@@ -40,11 +40,30 @@ steps cut on the way (a failed step halved) and the wall time.  With ``--load`` 
 is towed (``--friction``) at that load through the steady driver instead (``rollsim run``'s
 ``rolling-constant-load``): its steady sinkage, Q_H, rut, Newton iterations and wall time.
 
-``relaxed``: the same soil and window (``rollsim run``'s, side face 0.6 d), the roller towed (mu =
-0.8) at ``--load`` kN with the soil relaxed in the sweep by the first of ``--lengths`` (mm; the
-steady driver's sinkage steps), then each next length in turn from the state of the last, at the
-same load: the steady sinkage per relaxation length (its limit as the length goes to 0 is the
-rate-independent soil's).
+``limit``: the same soil and window (``rollsim run``'s steady driver, side face 0.6 d), the roller
+towed (``--friction``) at ``--load`` kN on cells of d / ``--refinement`` with ``--strain``: the
+route the driver takes (B-bar: the relaxation's limit; pointwise: the sinkage stepped up on the
+rate-independent soil) and, pointwise, also the relaxation's limit, taken on purpose, for the
+two to be compared: per relaxation length the steady sinkage at the load, Q_H, Newton
+iterations, then the extrapolated sinkage, its correction and the wall time.
+
+``convergence``: the Mn/DOT roller towed at ``--load`` kN through ``rollsim run``'s steady driver
+over each ``--soil`` (``case5``: the report's case 5, c-phi soil, mu = 0.8; ``case17``: layered
+case 17, three layers of clay with c_dp = 300 kPa, mu = 0.8; ``clay``: the clay of case 2,
+von Mises c_dp = 200 kPa, frictionless; ``case2``: the same clay, mu = 0.8), each ``--strain``,
+on fine cells of d / each of ``--levels`` at the contact: the steady sinkage, Q_H, rut, dofs,
+Newton iterations and wall time per level; over the last three levels the observed order and
+the Richardson value, and the last refinement's change.  B-bar reaches its rate-independent
+state through the relaxation's limit (the driver's route; its extrapolated sinkage is the
+level's).  ``--out``: the rows as JSON, one file per soil and strain, appended as they finish.
+
+``profile``: one steady state of the same roller towed at ``--sinkage`` mm on cells of d /
+``--refinement`` (``--strain``), the spin found for zero axle torque from the undisturbed soil:
+where its wall time goes (PETSc's log for the LU factorizations, the LU solves and GMRES's
+orthogonalisation; Python's profiler for the Jacobian's actions, the residuals, the sweeps
+inside each and the preconditioner's matrices), as fractions of the solve's wall time (the
+slowest rank's), and the Newton and Krylov iterations; with several ``--forcing`` the state
+solved with each (GMRES's Eisenstat-Walker forcing; 0: the fixed tolerance) in turn, in one run.
 
     python -m benchmarks steady hertz [--p0 3.6 4.5] [--cells-per-half-width 4]
         [--travel 14] [--step 0.0625] [--distance 5] [--out bench_steady.json]
@@ -53,8 +72,12 @@ rate-independent soil's).
     python -m benchmarks steady wheel [--soil case5] [--sinkage 4 6] [--travel 4] [--cells-per-half-width 4]
     mpirun -n 2 python -m benchmarks steady window [--accuracy standard] [--beside 0.3 0.6]
         [--sinkage 3.05 7.62 10.67] [--load 133.5 --friction 0.8]
-    mpirun -n 2 python -m benchmarks steady relaxed [--accuracy fast] [--strain cell-average]
-        [--lengths 5 3.5 2.5 ...] [--load 133.5]
+    mpirun -n 2 python -m benchmarks steady profile [--refinement 20] [--strain pointwise] [--sinkage 3.048]
+        [--forcing 0 0.1]
+    mpirun -n 2 python -m benchmarks steady convergence [--soil case5 case17 clay case2]
+        [--strain pointwise cell-average] [--levels 10 20 30 40] [--load 133.5] [--out DIR]
+    mpirun -n 2 python -m benchmarks steady limit [--refinement 20] [--strain cell-average]
+        [--load 133.5] [--friction 0.8]
 """
 from __future__ import annotations
 
@@ -74,7 +97,7 @@ from test_steady_rolling import (CLAY_3D, K, NEVER_YIELDS, ROLLER, SOIL, differe
                                  hold_faces_and_base, stretched_block,
                                  residual_part, steady, steady_behind, transient_behind)
 
-from _bench import dump_json  # noqa: E402
+from _bench import dump_json, observed_order  # noqa: E402
 from rollsim.solver.materials import DruckerPrager, VonMises  # noqa: E402
 from rollsim.solver.steady import NoSteadyState, RollingWindow, SteadyRolling, rolling_window_mesh  # noqa: E402
 
@@ -109,16 +132,28 @@ def main() -> int:
     extent.add_argument("--sinkage", type=float, nargs="+", default=[3.05, 7.62, 10.67], help="mm, in turn")
     extent.add_argument("--load", type=float, help="kN: towed at this load through the steady driver")
     extent.add_argument("--friction", type=float, default=0.8, help="with --load: the Coulomb coefficient")
-    relax = sub.add_parser("relaxed", help="3D roller on the case-5 soil at its load: the relaxation length lowered")
-    relax.add_argument("--accuracy", default="fast", help="the preset of the cells")
-    relax.add_argument("--strain", choices=("cell-average", "pointwise"), default="cell-average")
-    relax.add_argument("--lengths", type=float, nargs="+",
-                       default=[5.0, 3.5, 2.5, 1.75, 1.25, 0.9, 0.625, 0.44, 0.31, 0.22, 0.156, 0.11],
-                       help="relaxation lengths (mm), in turn")
-    relax.add_argument("--load", type=float, default=133.5, help="kN")
+    limit = sub.add_parser("limit", help="3D roller on the case-5 soil at its load: the relaxation's limit")
+    limit.add_argument("--refinement", type=float, default=20.0, help="elements per d at the contact")
+    limit.add_argument("--strain", choices=("cell-average", "pointwise"), default="cell-average")
+    limit.add_argument("--load", type=float, default=133.5, help="kN")
+    limit.add_argument("--friction", type=float, default=0.8)
+    conv = sub.add_parser("convergence", help="3D roller towed at its load: mesh convergence per soil and strain")
+    conv.add_argument("--soil", nargs="+", choices=sorted(CONVERGENCE_SOILS), default=sorted(CONVERGENCE_SOILS))
+    conv.add_argument("--strain", nargs="+", choices=("pointwise", "cell-average"), default=["pointwise", "cell-average"])
+    conv.add_argument("--levels", type=float, nargs="+", default=[10.0, 20.0, 30.0, 40.0],
+                      help="elements per d at the contact")
+    conv.add_argument("--load", type=float, default=133.5, help="kN")
+    conv.add_argument("--out", help="directory of the JSON rows")
+    prof = sub.add_parser("profile", help="3D roller, one steady state: where the time goes")
+    prof.add_argument("--refinement", type=float, default=20.0, help="elements per d at the contact")
+    prof.add_argument("--strain", choices=("cell-average", "pointwise"), default="pointwise")
+    prof.add_argument("--sinkage", type=float, default=3.048, help="mm")
+    prof.add_argument("--forcing", type=float, nargs="+", default=[0.1],
+                      help="GMRES's Eisenstat-Walker forcing (0: the options' fixed tolerance), each in turn")
     args = ap.parse_args()
     run = {"hertz": hertz_against_transient, "ranks": distributed_against_serial, "towed": towed_surface_layer,
-           "wheel": steady_against_transient, "window": side_face, "relaxed": relaxed_at_load}
+           "wheel": steady_against_transient, "window": side_face, "limit": relaxation_limit,
+           "convergence": mesh_convergence, "profile": profile_one_state}
     return run[args.problem](args)
 
 
@@ -290,70 +325,191 @@ def side_face(args) -> int:
     return 0
 
 
-def relaxed_at_load(args) -> int:
-    """The ``relaxed`` problem (module docstring)."""
-    from rollsim.solver.drivers.steady_rolling import LOAD_RTOL, TORQUE_RTOL, _constant_load, steady_window
-    from rollsim.solver.scene_model import layer_materials, scene_penalty, wheel_geometry
+def relaxation_limit(args) -> int:
+    """The ``limit`` problem (module docstring)."""
+    from rollsim.solver.drivers import steady_rolling as drv
     comm = MPI.COMM_WORLD
-    scene = _case5_roller(0.8, args.load, accuracy=args.accuracy, volumetric_strain=args.strain)
-    alpha = scene_penalty(scene, None)
-    t0 = time.perf_counter()
-    st = SteadyRolling(rolling_window_mesh(comm, steady_window(scene)), layer_materials(scene).by_layer[1],
-                       wheel=wheel_geometry(scene.wheel), friction=scene.wheel.friction, unit_weight=scene.soil.gamma,
-                       volumetric_strain=args.strain, relaxation_length=args.lengths[0] * 1e-3,
-                       **({} if alpha is None else {"penalty": alpha}))
-    if comm.rank == 0:
-        print(f"towed at {args.load:g} kN, mu = 0.8, {args.accuracy}, {args.strain}, "
-              f"{st.V.dofmap.index_map.size_global * st.gdim} dofs\n"
-              "| relaxation length (mm) | sinkage (mm) | Q_V (kN) | Q_H (kN) | Newton its (last solve) | wall (s) |\n"
-              "|---|---|---|---|---|---|", flush=True)
-    states: dict = {}
-
-    def solve(sinkage: float):
-        res = st.solve_free_rolling(sinkage, None, torque_rtol=TORQUE_RTOL)
-        states[res.sinkage] = (st.u.x.array.copy(), st.spin, res.vertical_force)
-        return res
-    res = None
-    for length in args.lengths:
-        st.relaxation_length = length * 1e-3
+    scene = _case5_roller(args.friction, args.load, refinement=args.refinement, volumetric_strain=args.strain)
+    routes = ("as the driver", "relaxation's limit") if args.strain == "pointwise" else ("as the driver",)
+    for route in routes:
+        at_load = drv._at_load
+        if route == "relaxation's limit":
+            drv._at_load = lambda steady, *rest: drv._relaxation_limit(steady, *rest)
         try:
-            res = _constant_load(st, scene, solve, states, st.inflow) if res is None else \
-                st.solve_load(scene.loading.load, None, initial_sinkage=res.sinkage, free_rolling=True,
-                              rtol=LOAD_RTOL, torque_rtol=TORQUE_RTOL)
-        except NoSteadyState as err:
-            if comm.rank == 0:
-                print(f"| {length:g} | no steady state: {err} | | | | |", flush=True)
-            break
-        if comm.rank == 0:
-            print(f"| {length:g} | {1e3 * res.sinkage:.3f} | {res.vertical_force / 1e3:.2f} | "
-                  f"{res.towing_force / 1e3:.2f} | {res.newton_iterations} | {time.perf_counter() - t0:.0f} |",
-                  flush=True)
+            r, _ = _steady_run(scene, comm)
+        finally:
+            drv._at_load = at_load
+        if comm.rank != 0:
+            continue
+        print(f"towed at {args.load:g} kN, mu = {args.friction:g}, d/{args.refinement:g} cells, {args.strain}, "
+              f"{r['dofs']} dofs, {route}: {r['status']}, {1e3 * r['sinkage_m']:.3f} mm, Q_H {r['QH_N'] / 1e3:.2f} kN, "
+              f"{r['newton_iterations']} Newton its, {r['wall_time_s']:.0f} s", flush=True)
+        limit = r.get("relaxation_limit")
+        if limit:
+            print("| relaxation length (mm) | sinkage (mm) | Q_H (kN) | Newton its |\n|---|---|---|---|")
+            for level in limit["levels"]:
+                print(f"| {1e3 * level['relaxation_length_m']:.3g} | {1e3 * level['sinkage_m']:.3f} "
+                      f"| {level['QH_N'] / 1e3:.2f} | {level['newton_iterations']} |")
+            if limit["sinkage_m"] is not None:
+                print(f"extrapolated {1e3 * limit['sinkage_m']:.3f} mm (correction {1e3 * limit['correction_m']:.3f} mm), "
+                      f"converged: {limit['converged']}", flush=True)
     return 0
 
 
-def _towed_at_load(scene, besides: list[float], comm) -> int:
-    """The ``window`` problem with ``--load``: the steady driver's constant-load run per side face."""
+def _layer(model: str, c_dp: str, phi_dp: str | None = None, **extra) -> dict:
+    return {"model": model, "E": "40 MPa", "nu": 0.35, "c_dp": c_dp, **({"phi_dp": phi_dp} if phi_dp else {}), **extra}
+
+
+#: the soils of the ``convergence`` problem: (friction, layers)
+CONVERGENCE_SOILS = {
+    "case5": (0.8, [_layer("drucker-prager", "194.6 kPa", "27.5 deg")]),
+    "case17": (0.8, [_layer("von-mises", "300 kPa", thickness="0.6096 m"),
+                     _layer("von-mises", "300 kPa", thickness="0.6096 m"), _layer("von-mises", "300 kPa")]),
+    "clay": (0.0, [_layer("von-mises", "200 kPa")]),
+    "case2": (0.8, [_layer("von-mises", "200 kPa")]),
+}
+
+
+def mesh_convergence(args) -> int:
+    """The ``convergence`` problem (module docstring)."""
+    import json
+    from rollsim.scene import parse_scene
+    comm = MPI.COMM_WORLD
+    for soil in args.soil:
+        friction, layers = CONVERGENCE_SOILS[soil]
+        for strain in args.strain:
+            rows = []
+            if comm.rank == 0:
+                print(f"\n{soil}, {strain}, towed at {args.load:g} kN\n| cells at the contact | dofs | status | "
+                      "sinkage (mm) | Q_H (kN) | rut (mm) | Newton its | wall (s) |\n|---|---|---|---|---|---|---|---|",
+                      flush=True)
+            for level in args.levels:
+                scene = parse_scene({"wheel": {"diameter": "1.524 m", "width": "0.4572 m", "friction": friction},
+                                     "soil": {"gamma": "20 kN/m^3", "layers": layers},
+                                     "loading": {"protocol": "rolling-constant-load", "load": f"{args.load} kN"},
+                                     "model": {"rolling": "steady", "refinement": level, "volumetric_strain": strain}})
+                r, _ = _steady_run(scene, comm)
+                rows.append({"level": level, "dofs": r["dofs"], "status": r["status"], "reason": r.get("reason"),
+                             "sinkage_m": r["sinkage_m"], "QH_N": r["QH_N"], "rut_m": r.get("rut_depth_m"),
+                             "newton_iterations": r["newton_iterations"], "wall_time_s": r["wall_time_s"],
+                             "relaxation_limit": r.get("relaxation_limit")})
+                if comm.rank == 0:
+                    print(f"| d/{level:g} | {r['dofs']} | {r['status']} | {1e3 * r['sinkage_m']:.2f} | "
+                          f"{r['QH_N'] / 1e3:.2f} | {1e3 * (r.get('rut_depth_m') or float('nan')):.2f} | "
+                          f"{r['newton_iterations']} | {r['wall_time_s']:.0f} |", flush=True)
+                    if args.out:
+                        path = pathlib.Path(args.out) / f"steady_convergence_{soil}_{strain}.json"
+                        path.parent.mkdir(parents=True, exist_ok=True)
+                        path.write_text(json.dumps(rows, indent=1))
+            ok = [row for row in rows if row["status"] == "ok"]
+            if comm.rank == 0 and len(ok) >= 3:
+                fine = ok[::-1][:3]
+                h, s = [1 / row["level"] for row in fine], [row["sinkage_m"] for row in fine]
+                fit = observed_order(h, s)
+                print(f"last refinement {100 * (s[0] - s[1]) / s[0]:+.2f} %; " +
+                      (f"observed order {fit[0]:.2f}, Richardson {1e3 * fit[1]:.2f} mm" if fit is not None
+                       else "changes not monotone: no order"), flush=True)
+    return 0
+
+
+#: the ``profile`` problem's parts: PETSc log events, and the Python functions (by name) whose
+#: time is counted where they are outermost
+PROFILE_EVENTS = {"LU factorizations": ("MatLUFactorSym", "MatLUFactorNum"), "LU solves": ("MatSolve",),
+                  "GMRES orthogonalisation": ("KSPGMRESOrthog",)}
+PROFILE_FUNCTIONS = {"Jacobian actions (sweep, assembly, friction)": "jacobian_action",
+                     "  of which tangent-linear sweeps": "_tangent_sweep",
+                     "residuals (sweep, assembly, friction)": "residual", "  of which sweeps": "_sweep",
+                     "preconditioner matrices (assembly)": "_update_preconditioner"}
+
+
+def profile_one_state(args) -> int:
+    """The ``profile`` problem (module docstring)."""
+    from rollsim.solver.steady import NewtonKrylovControl
+    from rollsim.solver.drivers.steady_rolling import steady_window
+    comm = MPI.COMM_WORLD
+    scene = _case5_roller(0.8, 133.5, refinement=args.refinement, volumetric_strain=args.strain)
+    mesh = rolling_window_mesh(comm, steady_window(scene))
+    walls = []
+    for forcing in args.forcing:
+        wall, parts, res, dofs = _profiled_state(scene, mesh, args, NewtonKrylovControl(forcing=forcing))
+        walls.append(wall)
+        if comm.rank == 0:
+            print(f"\nGMRES forcing {forcing:g}: one steady state at {args.sinkage:g} mm, d/{args.refinement:g} cells, "
+                  f"{args.strain}, {dofs} dofs, {comm.size} rank(s): {wall:.1f} s, {res.newton_iterations} Newton, "
+                  f"{res.krylov_iterations} Krylov iterations, Q_V {res.vertical_force / 1e3:.4f} kN, spin "
+                  f"{res.spin:.6f}\n| part | share of the wall time |\n|---|---|")
+            for name, value in parts.items():
+                print(f"| {name} | {100 * value / wall:.0f} % |")
+            rest = wall - sum(value for name, value in parts.items() if not name.startswith(" "))
+            print(f"| the rest (Python, PETSc's other work) | {100 * rest / wall:.0f} % |", flush=True)
+    if comm.rank == 0 and len(walls) > 1:
+        print("\nwall time against the first forcing's: " + ", ".join(f"{w / walls[0]:.2f}" for w in walls))
+    return 0
+
+
+def _profiled_state(scene, mesh, args, control):
+    """One free-rolling steady state of ``scene`` at ``args.sinkage`` under the profilers: the
+    wall time (s, the slowest rank's), its parts (s), the result and the dofs."""
+    import cProfile
+    import pstats
+    from petsc4py import PETSc
+    from rollsim.solver.drivers.steady_rolling import TORQUE_RTOL
+    from rollsim.solver.scene_model import layer_materials, wheel_geometry
+    comm = mesh.comm
+    st = SteadyRolling(mesh, layer_materials(scene).by_layer[1], wheel=wheel_geometry(scene.wheel),
+                       friction=scene.wheel.friction, unit_weight=scene.soil.gamma,
+                       volumetric_strain=args.strain, control=control)
+    PETSc.Log.begin()
+    before = {name: sum(PETSc.Log.Event(e).getPerfInfo()["time"] for e in events)
+              for name, events in PROFILE_EVENTS.items()}
+    profiler = cProfile.Profile()
+    comm.barrier()
+    t0 = time.perf_counter()
+    profiler.enable()
+    res = st.solve_free_rolling(args.sinkage * 1e-3, None, torque_rtol=TORQUE_RTOL)
+    profiler.disable()
+    wall = comm.allreduce(time.perf_counter() - t0, op=MPI.MAX)
+    parts = {name: sum(PETSc.Log.Event(e).getPerfInfo()["time"] for e in events) - before[name]
+             for name, events in PROFILE_EVENTS.items()}
+    stats = pstats.Stats(profiler).stats
+    for name, function in PROFILE_FUNCTIONS.items():
+        parts[name] = sum(cumulative for (path, _, fn), (_, _, _, cumulative, _) in stats.items()
+                          if fn == function and path.endswith("steady.py"))
+    parts = {name: comm.allreduce(value, op=MPI.MAX) for name, value in parts.items()}
+    return wall, parts, res, st.V.dofmap.index_map.size_global * st.gdim
+
+
+def _steady_run(scene, comm, **kwargs) -> tuple[dict, list[tuple[float, float]]]:
+    """``rollsim run``'s steady driver on ``scene`` in a scratch directory: the summary and, on
+    rank 0, the (sinkage, Q_V) of the states on the way."""
     import csv
     import shutil
     import tempfile
     from rollsim.solver.drivers.steady_rolling import run_steady
+    out = comm.bcast(tempfile.mkdtemp() if comm.rank == 0 else None)
+    states = []
+    try:
+        r = run_steady(scene, pathlib.Path(out) / "run", comm, progress=False, write_fields=False, **kwargs)
+        if comm.rank == 0:
+            with open(pathlib.Path(out) / "run" / "history.csv") as f:
+                states = [(float(row["sinkage_m"]), float(row["QV_N"])) for row in csv.DictReader(f)]
+    finally:
+        comm.barrier()
+        if comm.rank == 0:
+            shutil.rmtree(out)
+    return r, states
+
+
+def _towed_at_load(scene, besides: list[float], comm) -> int:
+    """The ``window`` problem with ``--load``: the steady driver's constant-load run per side face."""
     if comm.rank == 0:
         print(f"towed at {scene.loading.load / 1e3:g} kN, mu = {scene.wheel.friction:g}, {scene.model.accuracy}\n"
               "| side face from the wheel's edge (d) | dofs | status | sinkage (mm) | Q_H (kN) | rut (mm) | Newton its "
               "| wall (s) |\n|---|---|---|---|---|---|---|---|", flush=True)
     states = []
     for beside in besides:
-        out = comm.bcast(tempfile.mkdtemp() if comm.rank == 0 else None)
-        try:
-            r = run_steady(scene, pathlib.Path(out) / "run", comm, progress=False, write_fields=False,
-                           window={"beside": beside})
-            if comm.rank == 0:
-                with open(pathlib.Path(out) / "run" / "history.csv") as f:
-                    states.append((beside, [(float(row["sinkage_m"]), float(row["QV_N"])) for row in csv.DictReader(f)]))
-        finally:
-            comm.barrier()
-            if comm.rank == 0:
-                shutil.rmtree(out)
+        r, rows = _steady_run(scene, comm, window={"beside": beside})
+        states.append((beside, rows))
         if comm.rank == 0:
             print(f"| {beside:g} | {r['dofs']} | {r['status']} | {1e3 * r['sinkage_m']:.2f} | {r['QH_N'] / 1e3:.2f} "
                   f"| {1e3 * r.get('rut_depth_m', float('nan')):.2f} | {r['newton_iterations']} "

@@ -638,7 +638,7 @@ def test_relaxation_converges_to_the_rate_independent_steady_state():
         st = SteadyRolling(msh, material, wheel=WHEEL, relaxation_length=length)
         for sinkage in (0.004, 0.008):
             res = st.solve_sinkage(sinkage)
-        return res, float(np.min(st._station_travel))
+        return res, st.station_spacing
     ref, h = held(SOIL, 0.0)
     lengths = h / np.array([80.0, 40.0, 20.0, 10.0])
     relaxed = [held(SOIL, L)[0] for L in lengths]
@@ -971,7 +971,8 @@ def test_repeated_passes_of_the_towed_wheel(comm, tmp_mpi_path):
     """``loading.passes = 2`` (clay, frictionless, coarse cells, 40 kN): the second pass meets
     the soil the first left (its outflow state) and carries the load at a smaller sinkage, adding
     less rut; the total rut is their sum, and this clay ratchets (the second pass still adds over
-    half the first's rut, measured 0.62)."""
+    half the first's rut, measured 0.63).  With B-bar each pass reaches the load through the
+    relaxation's limit (module steady_rolling), whose extrapolated sinkage the pass reports."""
     from rollsim.scene import parse_scene
     from rollsim.solver.drivers.steady_rolling import LOAD_RTOL
     from rollsim.solver.run import run_scene
@@ -990,6 +991,9 @@ def test_repeated_passes_of_the_towed_wheel(comm, tmp_mpi_path):
     assert sinkage[0] > sinkage[1] > 0 and rut[0] > rut[1] > 0.5 * rut[0]
     assert passes[-1]["total_rut_m"] == pytest.approx(sum(rut), rel=1e-12)
     assert summary["sinkage_m"] == pytest.approx(sinkage[-1])
+    limit = summary["relaxation_limit"]
+    assert limit["converged"] and passes[-1]["relaxed_sinkage_m"] == limit["levels"][-1]["sinkage_m"]
+    assert abs(limit["correction_m"]) <= limit["rtol"] * passes[-1]["relaxed_sinkage_m"]
     assert summary["rut_depth_m"] == pytest.approx(passes[-1]["total_rut_m"])
     assert summary["shakedown"]["regime"] == "ratchetting"
     assert summary["shakedown"]["last_over_first_rut"] == pytest.approx(rut[1] / rut[0])
@@ -1049,3 +1053,97 @@ def test_regimes_of_repeated_passes():
     assert regime(1e-5, 0.05) == "cyclic plasticity"
     assert regime(3e-4, 0.05) == "ratchetting"
     assert "shakedown" not in _passes_summary([{"rut_m": 1e-3, "added_plastic_strain": 0.1}])
+
+
+def test_relaxation_limit_extrapolates_the_halved_lengths():
+    """The route to a rate-independent steady state through relaxed ones: the load reached with
+    the soil relaxed by RELAXATION_START station spacings, then the length halved at the load
+    until the extrapolation through the last three levels moves the last by at most
+    RELAXATION_RTOL.  On a sinkage first order in the length, s(L) = s0 - a L, the extrapolation
+    is exact and stops at the first level whose correction is within the tolerance; it is exact
+    at second order on uneven lengths too; a series whose changes grow or change sign is not
+    extrapolated, one that falls slowly gives its order; where a halved length's state is not found, a milder reduction
+    from the last state, and where none is found the series ends with the levels so far."""
+    from types import SimpleNamespace
+
+    from rollsim.solver.drivers import steady_rolling as drv
+    from rollsim.solver.steady import NoSteadyState
+    s0, a, spacing, load = 0.02, 0.5, 0.04, 1.0e5
+
+    def limit(fails=lambda length: False):
+        def solve_load(load_, inflow, **kwargs):
+            if fails(steady.relaxation_length):
+                raise NoSteadyState("stalled")
+            return SimpleNamespace(sinkage=s0 - a * steady.relaxation_length, vertical_force=load_,
+                                   towing_force=0.0, newton_iterations=1)
+        steady = SimpleNamespace(station_spacing=spacing, relaxation_length=0.0, solve_load=solve_load,
+                                 continue_from=lambda states, s: None, comm=MPI.COMM_SELF, spin=1.0,
+                                 u=SimpleNamespace(x=SimpleNamespace(array=np.zeros(2))), residual=lambda inflow: None)
+        scene = SimpleNamespace(wheel=SimpleNamespace(diameter=1.0), loading=SimpleNamespace(load=load))
+        constant = drv._constant_load
+        drv._constant_load = lambda st, sc, solve, states, inflow, rtol=None: solve_load(load, inflow)
+        try:
+            return drv._relaxation_limit(steady, scene, None, {}, None, lambda res: res, False)
+        finally:
+            drv._constant_load = constant
+
+    res, lim = limit()
+    lengths = [level["relaxation_length_m"] for level in lim["levels"]]
+    assert lengths[0] == drv.RELAXATION_START * spacing
+    assert lengths == pytest.approx(lengths[0] * 0.5 ** np.arange(len(lengths)))
+    assert lim["converged"] and lim["sinkage_m"] == pytest.approx(s0, rel=1e-12) and lim["order"] == pytest.approx(1.0)
+    # stops at the first level whose correction (= its change, first order) is within the tolerance
+    sinkages = [level["sinkage_m"] for level in lim["levels"]]
+    assert len(lengths) > 3 and lim["correction_m"] == pytest.approx(a * lengths[-1])
+    assert a * lengths[-1] <= drv.RELAXATION_RTOL * sinkages[-1] and a * lengths[-2] > drv.RELAXATION_RTOL * sinkages[-2]
+    L = [4.0, 2.0, 1.0]
+    assert drv.relaxation_extrapolation(list(zip(L, [1.0, 1.1, 1.3]))) is None        # changes grow
+    assert drv.relaxation_extrapolation(list(zip(L, [1.0, 1.1, 1.05]))) is None       # change of sign
+    assert drv.relaxation_extrapolation(list(zip(L, [1.0, 1.1, 1.19])))[2] == pytest.approx(np.log2(1 / 0.9))
+    assert drv.relaxation_extrapolation([(2.0, 1.0), (1.0, 1.0 + 1e-5)]) == (1.0 + 1e-5, 0.0, np.inf)
+    second = [1.0 - 0.01 * x ** 2 for x in (3.0, 2.0, 1.4)]                         # uneven, second order
+    assert drv.relaxation_extrapolation(list(zip([3.0, 2.0, 1.4], second)))[0] == pytest.approx(1.0, rel=1e-9)
+    # a halving whose state is not found: the milder reductions from the last state
+    res, lim = limit(fails=lambda length: length == lengths[2] / 2)
+    got = [level["relaxation_length_m"] for level in lim["levels"]]
+    assert got[:3] == lengths[:3] and got[3] == pytest.approx(lengths[2] * 2 ** -0.5)
+    assert lim["converged"] and lim["sinkage_m"] == pytest.approx(s0, rel=1e-9)
+    # none found: the levels so far
+    res, lim = limit(fails=lambda length: length < lengths[2] * 0.9)
+    assert not lim["converged"] and len(lim["levels"]) == 3 and "stalled" in lim["reason"]
+    assert res.sinkage == lim["levels"][-1]["sinkage_m"]
+
+
+def test_constant_load_route_to_the_rate_independent_state():
+    """Which way the constant-load driver reaches the load: a relaxed scene stays relaxed; a
+    pointwise soil steps up rate-independent and takes the relaxation's limit only where a step
+    is not found (not where the wheel ploughs on); B-bar takes the limit at once."""
+    from types import SimpleNamespace
+
+    from rollsim.solver.drivers import steady_rolling as drv
+    from rollsim.solver.steady import NoSteadyState
+
+    def route(strain, relaxation=0.0, fails=None):
+        taken = []
+
+        def constant_load(steady, scene, solve, states, inflow, rtol=None):
+            taken.append(("steps", steady.relaxation_length))
+            if fails is not None:
+                raise fails
+            return "state"
+        steady = SimpleNamespace(volumetric_strain=strain, relaxation_length=123.0, comm=MPI.COMM_SELF)
+        scene = SimpleNamespace(model=SimpleNamespace(relaxation_length=relaxation))
+        saved = drv._constant_load, drv._relaxation_limit
+        drv._constant_load = constant_load
+        drv._relaxation_limit = lambda *args: (taken.append(("limit",)), ("limit state", {}))[1]
+        try:
+            return drv._at_load(steady, scene, None, {}, None, None, False), taken
+        finally:
+            drv._constant_load, drv._relaxation_limit = saved
+
+    assert route("pointwise") == (("state", None), [("steps", 0.0)])
+    assert route("cell-average", relaxation=0.002) == (("state", None), [("steps", 0.002)])
+    assert route("cell-average") == (("limit state", {}), [("limit",)])
+    assert route("pointwise", fails=NoSteadyState("stalled"))[1] == [("steps", 0.0), ("limit",)]
+    with pytest.raises(drv.WheelPloughs):
+        route("pointwise", fails=drv.WheelPloughs("ploughs"))

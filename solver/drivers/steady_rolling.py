@@ -19,6 +19,7 @@ frame: x from the front face to the rear, settlement), ``rut.png`` and ``fields/
 """
 from __future__ import annotations
 
+import math
 import pathlib
 import time
 from dataclasses import replace
@@ -123,6 +124,12 @@ def run_steady(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_o
         states[res.sinkage] = (*results["state"], res.vertical_force)
         return res
 
+    def recorded(res):
+        """``res`` recorded unless it is the last state recorded (a step that hit the load)."""
+        if res is not results.get("last"):
+            record(res)
+        return res
+
     def body():
         if scene.loading.protocol == "rolling-continuous":
             for s in np.arange(1, CURVE_POINTS + 1) * scene.loading.max_sinkage / CURVE_POINTS:
@@ -133,10 +140,13 @@ def run_steady(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_o
                     steady.restart()
                     states.clear()
                     results.update(inflow=results["last"].outflow, **{"pass": k})
-                final = _constant_load(steady, scene, solve, states, results["inflow"])
-                if final is not results["last"]:    # else a step hit the load and is recorded
-                    record(final)
+                final, limit = _at_load(steady, scene, solve, states, results["inflow"], recorded, progress)
+                recorded(final)
                 passes.append(_pass_row(k, steady, final, results["inflow"], passes, progress))
+                if limit is not None:
+                    results["limit"] = limit
+                    if limit["sinkage_m"] is not None:      # the rate-independent sinkage, as the summary's
+                        passes[-1].update(sinkage_m=limit["sinkage_m"], relaxed_sinkage_m=final.sinkage)
         return None
 
     status, reason, diagnostics = run_protected(body, comm, lambda: {"steady_states": len(rows)})
@@ -146,6 +156,11 @@ def run_steady(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_o
     line = _centre_line(steady, rows[-1]["sinkage_m"]) if rows else None
     summary = _summary(scene, steady, window, rows, results.get("last"), line, status, reason, diagnostics,
                        t_start, dofs, alpha)
+    if "limit" in results:
+        warnings = summary.pop("warnings", [])
+        summary.update(_limit_summary(results["limit"]))
+        if warnings or "warnings" in summary:
+            summary["warnings"] = warnings + summary.get("warnings", [])
     several = (scene.loading.passes or 1) > 1
     if several:
         summary.update(_passes_summary(passes))
@@ -159,11 +174,168 @@ def run_steady(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_o
     return finish_run(out, rows, scene, summary, comm, progress=progress)
 
 
-def _constant_load(steady: SteadyRolling, scene, solve, states: dict, inflow):
+class WheelPloughs(NoSteadyState):
+    """No steady state carries the load down to the sinkage d/4: the wheel would plough on."""
+
+
+#: the soil's relaxation length, in the shortest spacing of the streamlines' stations, on the way
+#: to a rate-independent steady state the sinkage steps do not reach; halved at the load, each
+#: length from the state of the last (the regularisation acts per station: each station's stress
+#: moves 1 / (1 + L / spacing) of the way to the return map's)
+RELAXATION_START = 0.25
+#: the relaxation's limit is reached when the extrapolation of the last three lengths' sinkages
+#: moves the last by at most this fraction of it
+RELAXATION_RTOL = 0.01
+#: the limit counts as reached only where the sinkages' observed order in the length is at least
+#: this (1: first order; 0.4: the change per halving falls by at least a quarter)
+RELAXATION_MIN_ORDER = 0.4
+#: relaxation lengths at most (the first included)
+RELAXATION_LEVELS = 12
+#: each length over the last: halved, and where that state is not found, the milder reductions
+RELAXATION_REDUCTIONS = (0.5, 2 ** -0.5, 2 ** -0.25)
+#: relative tolerance on Q_V = load of each relaxation length after the first (finer than
+#: :data:`LOAD_RTOL`: the sinkage's change between lengths must stand above the load's tolerance)
+LEVEL_LOAD_RTOL = 1e-4
+
+
+def _at_load(steady: SteadyRolling, scene, solve, states: dict, inflow, record, progress: bool):
+    """The towed wheel's steady state at ``loading.load`` and, where it was reached through the
+    relaxation's limit, that limit (:func:`_relaxation_limit`; else ``None``).  With ``[model]
+    relaxation_length`` the soil stays relaxed by it (:func:`_constant_load`).  Else the sinkage is
+    stepped up on the rate-independent soil, except with B-bar, whose steps stall beyond a few mm
+    (docs/limitations.md, "Steady rolling: how far it reaches"): then, and where a pointwise step
+    is not found, the relaxation's limit is the route."""
+    steady.relaxation_length = scene.model.relaxation_length
+    if steady.relaxation_length > 0:
+        return _constant_load(steady, scene, solve, states, inflow), None
+    if steady.volumetric_strain == "pointwise":
+        try:
+            return _constant_load(steady, scene, solve, states, inflow), None
+        except WheelPloughs:
+            raise
+        except NoSteadyState as err:
+            if progress and steady.comm.rank == 0:
+                log.info("steady rolling: %s; the load is reached on relaxed soil and the relaxation lowered", err)
+    return _relaxation_limit(steady, scene, solve, states, inflow, record, progress)
+
+
+def _relaxation_limit(steady: SteadyRolling, scene, solve, states: dict, inflow, record, progress: bool):
+    """The rate-independent steady state at ``loading.load`` as the limit of relaxed ones: the
+    sinkage stepped up to the load with the soil relaxed by :data:`RELAXATION_START` station
+    spacings (:attr:`SteadyRolling.station_spacing`), then the relaxation length lowered at the
+    load, each from the state of the last (halved; where that state is not found, from the last
+    state by the milder :data:`RELAXATION_REDUCTIONS`), until the extrapolation of the sinkage
+    (:func:`relaxation_extrapolation`) moves the last level's by at most :data:`RELAXATION_RTOL`
+    of it (or :data:`RELAXATION_LEVELS` lengths, or no reduction's state found).  Returns the
+    last level's state and the limit: the levels, the extrapolated sinkage and whether it met the
+    tolerance."""
+    load = scene.loading.load
+    steady.relaxation_length = RELAXATION_START * steady.station_spacing
+    states.clear()
+    steady.continue_from(states, 0.0)
+    res = record(_constant_load(steady, scene, solve, states, inflow, LEVEL_LOAD_RTOL))
+    levels = [_level(steady, res)]
+    limit = {"levels": levels, "converged": False, "reason": None}
+    while True:
+        extrapolation = relaxation_extrapolation([(level["relaxation_length_m"], level["sinkage_m"])
+                                                  for level in levels])
+        limit.update(dict(zip(("sinkage_m", "correction_m", "order"), extrapolation or (None, None, None))))
+        if extrapolation is not None and extrapolation[2] >= RELAXATION_MIN_ORDER \
+                and abs(extrapolation[1]) <= RELAXATION_RTOL * res.sinkage:
+            limit["converged"] = True
+            break
+        if len(levels) == RELAXATION_LEVELS:
+            limit["reason"] = f"{RELAXATION_LEVELS} relaxation lengths"
+            break
+        kept = (steady.u.x.array.copy(), steady.spin, steady.relaxation_length)
+        for reduction in RELAXATION_REDUCTIONS:
+            steady.relaxation_length = kept[2] * reduction
+            try:
+                res = steady.solve_load(load, inflow, initial_sinkage=_predicted_sinkage(levels, steady.relaxation_length),
+                                        free_rolling=True, rtol=LEVEL_LOAD_RTOL, torque_rtol=TORQUE_RTOL)
+                break
+            except NoSteadyState as err:
+                limit["reason"] = f"relaxation length {1e3 * steady.relaxation_length:.3g} mm: {err}"
+                steady.u.x.array[:], steady.spin, steady.relaxation_length = kept    # the last level's state
+                if progress and steady.comm.rank == 0:
+                    log.info("steady rolling at relaxation %.3g mm: %s", 1e3 * kept[2] * reduction, err)
+        else:
+            steady.residual(inflow)                     # the last level's fields swept again
+            break
+        limit["reason"] = None
+        record(res)
+        levels.append(_level(steady, res))
+        if progress and steady.comm.rank == 0:
+            log.info("relaxation %.3g mm: s = %.4g mm at Q_V = %.4g kN", 1e3 * steady.relaxation_length,
+                     1e3 * res.sinkage, res.vertical_force / 1e3)
+    if limit["order"] == math.inf:
+        limit["order"] = None                   # JSON
+    return res, limit
+
+
+def _predicted_sinkage(levels: list[dict], length: float) -> float:
+    """Where the next level's load search starts: the sinkage at the relaxation ``length`` (m)
+    on the line through the last two ``levels``, if deeper than the last level's (a solve starts
+    from the deepest state short of its sinkage), else the last level's."""
+    (L1, s1), (L2, s2) = [(level["relaxation_length_m"], level["sinkage_m"]) for level in ([levels[0]] + levels)[-2:]]
+    return s2 if L1 == L2 else max(s2, s2 + (s2 - s1) * (length - L2) / (L2 - L1))
+
+
+def _level(steady: SteadyRolling, res) -> dict:
+    """One relaxation length's steady state at the load."""
+    return {"relaxation_length_m": steady.relaxation_length, "sinkage_m": res.sinkage, "QV_N": res.vertical_force,
+            "QH_N": res.towing_force, "newton_iterations": res.newton_iterations}
+
+
+def relaxation_extrapolation(levels: list[tuple[float, float]]) -> tuple[float, float, float] | None:
+    """The limit as the relaxation length goes to 0 of the sinkages of ``levels`` ((length,
+    sinkage), m, lengths falling), as (limit, its distance from the last, observed order): where
+    the last change is at most a tenth of :data:`RELAXATION_RTOL` of the sinkage, the last (order
+    infinite); else through the last three, s = s0 + a L^p, where their changes have one sign and
+    fall (an order p > 0); else ``None``."""
+    if len(levels) < 2:
+        return None
+    (L1, s1), (L2, s2), (L3, s3) = ([(math.nan, math.nan)] + list(levels))[-3:]
+    last = s3 - s2
+    if abs(last) <= 0.1 * RELAXATION_RTOL * abs(s3):
+        return s3, 0.0, math.inf
+    if len(levels) < 3 or s2 == s1 or last / (s2 - s1) <= 0:
+        return None
+    ratio = last / (s2 - s1)
+
+    def excess(p: float) -> float:      # the three lengths' ratio of changes at order p, less the observed
+        return (L2 ** p - L3 ** p) / (L1 ** p - L2 ** p) - ratio
+    low, high = 1e-3, 10.0
+    if excess(low) < 0 or excess(high) > 0:
+        return None
+    for _ in range(60):                 # excess falls with p: bisection
+        mid = 0.5 * (low + high)
+        low, high = (mid, high) if excess(mid) > 0 else (low, mid)
+    p = 0.5 * (low + high)
+    correction = last * L3 ** p / (L2 ** p - L3 ** p)
+    return s3 + correction, correction, p
+
+
+def _limit_summary(limit: dict) -> dict:
+    """``summary.json``'s entries of a state reached through the relaxation's limit: the
+    extrapolated sinkage as ``sinkage_m`` (the fields, forces and rut are the last level's, its
+    sinkage ``relaxed_sinkage_m``) and ``relaxation_limit``."""
+    out = {"relaxation_limit": {**limit, "rtol": RELAXATION_RTOL, "start_over_station_spacing": RELAXATION_START}}
+    if limit["sinkage_m"] is not None:
+        out.update(sinkage_m=limit["sinkage_m"], relaxed_sinkage_m=limit["levels"][-1]["sinkage_m"])
+    if not limit["converged"]:
+        out["warnings"] = [f"the relaxation's limit was not reached ({limit['reason']}): the sinkage is "
+                           + (f"extrapolated at the observed order {limit['order']:.2g} from the last three "
+                              f"relaxation lengths, {1e3 * limit['correction_m']:+.3g} mm from the last"
+                              if limit["sinkage_m"] is not None else "the last relaxed state's")]
+    return out
+
+
+def _constant_load(steady: SteadyRolling, scene, solve, states: dict, inflow, rtol: float | None = None):
     """The towed wheel at ``loading.load`` on the soil entering in the state ``inflow``: sinkage
     steps of :data:`FIRST_STEP` d (growing by half per step up to :data:`MAX_STEP` d) until Q_V
     passes the load, then :meth:`SteadyRolling.solve_load` inside that bracket from the ``states``
-    solved (to :data:`LOAD_RTOL`).  Near the load a step aims :data:`LOAD_OVERSHOOT` times as far
+    solved (to ``rtol``, default :data:`LOAD_RTOL`).  Near the load a step aims :data:`LOAD_OVERSHOOT` times as far
     as the sinkage where the secant of the last two states carries it (the undisturbed surface,
     Q_V = 0, counts as one; not less than a tenth of the first step); a step whose steady state is
     not found is halved from the last state, :data:`STEP_CUTS` times at most in all."""
@@ -172,7 +344,7 @@ def _constant_load(steady: SteadyRolling, scene, solve, states: dict, inflow):
     last = [(0.0, 0.0)]                     # (sinkage, Q_V) of the last two states
     while True:
         if sinkage + step > 0.25 * d:
-            raise NoSteadyState(f"no steady state carries Q_V = {load / 1e3:g} kN down to the sinkage d/4 = "
+            raise WheelPloughs(f"no steady state carries Q_V = {load / 1e3:g} kN down to the sinkage d/4 = "
                                 f"{0.25 * d:g} m: the wheel would plough on")
         if len(last) == 2 and last[1][1] > last[0][1]:
             (s0, q0), (s1, q1) = last
@@ -193,9 +365,10 @@ def _constant_load(steady: SteadyRolling, scene, solve, states: dict, inflow):
         if res.vertical_force >= load:
             break
         step = min(1.5 * step, MAX_STEP * d)
-    if abs(res.vertical_force - load) <= LOAD_RTOL * load:
+    rtol = LOAD_RTOL if rtol is None else rtol
+    if abs(res.vertical_force - load) <= rtol * load:
         return res
-    return steady.solve_load(load, inflow, free_rolling=True, rtol=LOAD_RTOL, states=states, torque_rtol=TORQUE_RTOL)
+    return steady.solve_load(load, inflow, free_rolling=True, rtol=rtol, states=states, torque_rtol=TORQUE_RTOL)
 
 
 #: the last of several passes counts as adding no rut (or no plastic strain) when it adds at most
@@ -281,7 +454,7 @@ def _summary(scene, steady: SteadyRolling, window: RollingWindow, rows, last, li
                          "accuracy": scene.model.accuracy, "elements_per_d": scene.model.elements_per_d,
                          "cell_type": "hexahedron", "displacement_degree": 2, "kinematics": "small-strain",
                          "volumetric_strain": steady.volumetric_strain,
-                         "relaxation_length_m": steady.relaxation_length,
+                         "relaxation_length_m": scene.model.relaxation_length,
                          "contact": {"method": "penalty", "kappa_Pa_per_m": steady.kappa, "alpha": alpha,
                                      "friction": steady.friction, "tangential_ratio": steady.tangential_ratio},
                          "window_m": {"ahead": window.ahead, "behind": window.behind, "depth": window.depth,
