@@ -397,6 +397,8 @@ def mesh_convergence(args) -> int:
                     print(f"| d/{level:g} | {r['dofs']} | {r['status']} | {1e3 * r['sinkage_m']:.2f} | "
                           f"{r['QH_N'] / 1e3:.2f} | {1e3 * (r.get('rut_depth_m') or float('nan')):.2f} | "
                           f"{r['newton_iterations']} | {r['wall_time_s']:.0f} |", flush=True)
+                    if r["status"] != "ok":
+                        print(f"  ({r['status']}: {r.get('reason')})", flush=True)
                     if args.out:
                         path = pathlib.Path(args.out) / f"steady_convergence_{soil}_{strain}.json"
                         path.parent.mkdir(parents=True, exist_ok=True)

@@ -1238,6 +1238,14 @@ class SteadyRolling:
         raise NoSteadyState(f"no sinkage carries the load {load:.6g} N/m: Q_V = {result.vertical_force:.6g} N/m "
                             f"after {max_iterations} solves")
 
+    def restore(self, displacement: np.ndarray, spin: float, sinkage: float) -> None:
+        """Make the converged state (``displacement`` array, ``spin``) at ``sinkage`` (m) the
+        current one, and the next solve's start (a state found before a failed solve)."""
+        self.u.x.array[:] = displacement
+        self.spin = spin
+        self._last_sinkage = sinkage
+        self._converged = [(sinkage, displacement.copy(), spin)]
+
     def continue_from(self, states: dict, sinkage: float) -> None:
         """Set up the next solve at ``sinkage`` (m) from ``states`` (sinkage -> (displacement
         array, spin, Q_V) of converged states): from the deepest state short of it, with its spin

@@ -1078,7 +1078,8 @@ def test_relaxation_limit_extrapolates_the_halved_lengths():
                                    towing_force=0.0, newton_iterations=1)
         steady = SimpleNamespace(station_spacing=spacing, relaxation_length=0.0, solve_load=solve_load,
                                  continue_from=lambda states, s: None, comm=MPI.COMM_SELF, spin=1.0,
-                                 u=SimpleNamespace(x=SimpleNamespace(array=np.zeros(2))), residual=lambda inflow: None)
+                                 u=SimpleNamespace(x=SimpleNamespace(array=np.zeros(2))), residual=lambda inflow: None,
+                                 restore=lambda u, spin, sinkage: None)
         scene = SimpleNamespace(wheel=SimpleNamespace(diameter=1.0), loading=SimpleNamespace(load=load))
         constant = drv._constant_load
         drv._constant_load = lambda st, sc, solve, states, inflow, rtol=None: solve_load(load, inflow)

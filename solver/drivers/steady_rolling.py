@@ -247,18 +247,19 @@ def _relaxation_limit(steady: SteadyRolling, scene, solve, states: dict, inflow,
         if len(levels) == RELAXATION_LEVELS:
             limit["reason"] = f"{RELAXATION_LEVELS} relaxation lengths"
             break
-        kept = (steady.u.x.array.copy(), steady.spin, steady.relaxation_length)
+        kept = (steady.u.x.array.copy(), steady.spin, res.sinkage, steady.relaxation_length)
         for reduction in RELAXATION_REDUCTIONS:
-            steady.relaxation_length = kept[2] * reduction
+            steady.relaxation_length = kept[3] * reduction
             try:
                 res = steady.solve_load(load, inflow, initial_sinkage=_predicted_sinkage(levels, steady.relaxation_length),
                                         free_rolling=True, rtol=LEVEL_LOAD_RTOL, torque_rtol=TORQUE_RTOL)
                 break
             except NoSteadyState as err:
                 limit["reason"] = f"relaxation length {1e3 * steady.relaxation_length:.3g} mm: {err}"
-                steady.u.x.array[:], steady.spin, steady.relaxation_length = kept    # the last level's state
                 if progress and steady.comm.rank == 0:
-                    log.info("steady rolling at relaxation %.3g mm: %s", 1e3 * kept[2] * reduction, err)
+                    log.info("steady rolling at relaxation %.3g mm: %s", 1e3 * steady.relaxation_length, err)
+                steady.restore(*kept[:3])                   # the last level's state
+                steady.relaxation_length = kept[3]
         else:
             steady.residual(inflow)                     # the last level's fields swept again
             break
