@@ -145,8 +145,9 @@ def run_steady(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_o
                 passes.append(_pass_row(k, steady, final, results["inflow"], passes, progress))
                 if limit is not None:
                     results["limit"] = limit
-                    if limit["sinkage_m"] is not None:      # the rate-independent sinkage, as the summary's
-                        passes[-1].update(sinkage_m=limit["sinkage_m"], relaxed_sinkage_m=final.sinkage)
+                    passes[-1]["relaxed_sinkage_m"] = final.sinkage
+                    if limit["converged"]:                  # the rate-independent sinkage, as the summary's
+                        passes[-1]["sinkage_m"] = limit["sinkage_m"]
         return None
 
     status, reason, diagnostics = run_protected(body, comm, lambda: {"steady_states": len(rows)})
@@ -251,8 +252,8 @@ def _relaxation_limit(steady: SteadyRolling, scene, solve, states: dict, inflow,
         for reduction in RELAXATION_REDUCTIONS:
             steady.relaxation_length = kept[3] * reduction
             try:
-                res = steady.solve_load(load, inflow, initial_sinkage=_predicted_sinkage(levels, steady.relaxation_length),
-                                        free_rolling=True, rtol=LEVEL_LOAD_RTOL, torque_rtol=TORQUE_RTOL)
+                res = steady.solve_load(load, inflow, initial_sinkage=kept[2], free_rolling=True,
+                                        rtol=LEVEL_LOAD_RTOL, torque_rtol=TORQUE_RTOL)
                 break
             except NoSteadyState as err:
                 limit["reason"] = f"relaxation length {1e3 * steady.relaxation_length:.3g} mm: {err}"
@@ -272,14 +273,6 @@ def _relaxation_limit(steady: SteadyRolling, scene, solve, states: dict, inflow,
     if limit["order"] == math.inf:
         limit["order"] = None                   # JSON
     return res, limit
-
-
-def _predicted_sinkage(levels: list[dict], length: float) -> float:
-    """Where the next level's load search starts: the sinkage at the relaxation ``length`` (m)
-    on the line through the last two ``levels``, if deeper than the last level's (a solve starts
-    from the deepest state short of its sinkage), else the last level's."""
-    (L1, s1), (L2, s2) = [(level["relaxation_length_m"], level["sinkage_m"]) for level in ([levels[0]] + levels)[-2:]]
-    return s2 if L1 == L2 else max(s2, s2 + (s2 - s1) * (length - L2) / (L2 - L1))
 
 
 def _level(steady: SteadyRolling, res) -> dict:
@@ -318,17 +311,19 @@ def relaxation_extrapolation(levels: list[tuple[float, float]]) -> tuple[float, 
 
 
 def _limit_summary(limit: dict) -> dict:
-    """``summary.json``'s entries of a state reached through the relaxation's limit: the
-    extrapolated sinkage as ``sinkage_m`` (the fields, forces and rut are the last level's, its
-    sinkage ``relaxed_sinkage_m``) and ``relaxation_limit``."""
-    out = {"relaxation_limit": {**limit, "rtol": RELAXATION_RTOL, "start_over_station_spacing": RELAXATION_START}}
-    if limit["sinkage_m"] is not None:
-        out.update(sinkage_m=limit["sinkage_m"], relaxed_sinkage_m=limit["levels"][-1]["sinkage_m"])
-    if not limit["converged"]:
-        out["warnings"] = [f"the relaxation's limit was not reached ({limit['reason']}): the sinkage is "
-                           + (f"extrapolated at the observed order {limit['order']:.2g} from the last three "
-                              f"relaxation lengths, {1e3 * limit['correction_m']:+.3g} mm from the last"
-                              if limit["sinkage_m"] is not None else "the last relaxed state's")]
+    """``summary.json``'s entries of a state reached through the relaxation's limit:
+    ``relaxation_limit``, the last level's sinkage as ``relaxed_sinkage_m`` (the fields, forces
+    and rut are that level's) and, where the limit was reached, the extrapolated sinkage as
+    ``sinkage_m``; else ``sinkage_m`` stays the last level's, with a warning."""
+    out = {"relaxation_limit": {**limit, "rtol": RELAXATION_RTOL, "start_over_station_spacing": RELAXATION_START},
+           "relaxed_sinkage_m": limit["levels"][-1]["sinkage_m"]}
+    if limit["converged"]:
+        out["sinkage_m"] = limit["sinkage_m"]
+    else:
+        out["warnings"] = [f"the relaxation's limit was not reached ({limit['reason']}): the sinkage is the last "
+                           "relaxation length's, short of the rate-independent one"
+                           + (f"; at the observed order {limit['order']:.2g} the last three lengths extrapolate "
+                              f"to {1e3 * limit['sinkage_m']:.4g} mm" if limit["sinkage_m"] is not None else "")]
     return out
 
 
