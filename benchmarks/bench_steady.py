@@ -290,8 +290,7 @@ def _case5_roller(friction: float, load: float, **model):
 def side_face(args) -> int:
     """The ``window`` problem (module docstring)."""
     from rollsim.log import get_logger
-    from rollsim.solver.drivers.steady_rolling import steady_window
-    from rollsim.solver.scene_model import layer_materials, wheel_geometry
+    from rollsim.solver.drivers.steady_rolling import steady_problem, steady_window
     comm = MPI.COMM_WORLD
     scene = _case5_roller(0 if args.load is None else args.friction, args.load or 133.5, accuracy=args.accuracy)
     if args.load is not None:
@@ -303,9 +302,7 @@ def side_face(args) -> int:
     for beside in args.beside:
         window = steady_window(scene, {"beside": beside})
         t0 = time.perf_counter()
-        st = SteadyRolling(rolling_window_mesh(comm, window), layer_materials(scene).by_layer[1],
-                           wheel=wheel_geometry(scene.wheel), unit_weight=scene.soil.gamma,
-                           volumetric_strain=scene.model.volumetric_strain)
+        st = steady_problem(scene, comm, window)
         if comm.rank == 0:
             print(f"side face {beside:g} d from the wheel's edge ({window.across:.3f} m from the centre), "
                   f"{st.V.dofmap.index_map.size_global * st.gdim} dofs, {args.accuracy}\n"
@@ -427,13 +424,13 @@ PROFILE_FUNCTIONS = {"Jacobian actions (sweep, assembly, friction)": "jacobian_a
 def profile_one_state(args) -> int:
     """The ``profile`` problem (module docstring)."""
     from rollsim.solver.steady import NewtonKrylovControl
-    from rollsim.solver.drivers.steady_rolling import steady_window
+    from rollsim.solver.drivers.steady_rolling import steady_problem, steady_window
     comm = MPI.COMM_WORLD
     scene = _case5_roller(0.8, 133.5, refinement=args.refinement, volumetric_strain=args.strain)
-    mesh = rolling_window_mesh(comm, steady_window(scene))
     walls = []
     for forcing in args.forcing:
-        wall, parts, res, dofs = _profiled_state(scene, mesh, args, NewtonKrylovControl(forcing=forcing))
+        steady = steady_problem(scene, comm, steady_window(scene), control=NewtonKrylovControl(forcing=forcing))
+        wall, parts, res, dofs = _profiled_state(steady, args)
         walls.append(wall)
         if comm.rank == 0:
             print(f"\nGMRES forcing {forcing:g}: one steady state at {args.sinkage:g} mm, d/{args.refinement:g} cells, "
@@ -449,18 +446,14 @@ def profile_one_state(args) -> int:
     return 0
 
 
-def _profiled_state(scene, mesh, args, control):
-    """One free-rolling steady state of ``scene`` at ``args.sinkage`` under the profilers: the
+def _profiled_state(st: SteadyRolling, args):
+    """One free-rolling steady state of ``st`` at ``args.sinkage`` under the profilers: the
     wall time (s, the slowest rank's), its parts (s), the result and the dofs."""
     import cProfile
     import pstats
     from petsc4py import PETSc
     from rollsim.solver.drivers.steady_rolling import TORQUE_RTOL
-    from rollsim.solver.scene_model import layer_materials, wheel_geometry
-    comm = mesh.comm
-    st = SteadyRolling(mesh, layer_materials(scene).by_layer[1], wheel=wheel_geometry(scene.wheel),
-                       friction=scene.wheel.friction, unit_weight=scene.soil.gamma,
-                       volumetric_strain=args.strain, control=control)
+    comm = st.comm
     PETSc.Log.begin()
     before = {name: sum(PETSc.Log.Event(e).getPerfInfo()["time"] for e in events)
               for name, events in PROFILE_EVENTS.items()}

@@ -36,7 +36,7 @@ from ..scene_model import layer_materials, scene_penalty, wheel_geometry
 from ..steady import NoSteadyState, RollingWindow, SteadyRolling, rolling_window_mesh
 from .base import run_protected
 
-__all__ = ["run_steady", "steady_window", "CURVE_POINTS"]
+__all__ = ["run_steady", "steady_problem", "steady_window", "CURVE_POINTS"]
 
 log = get_logger("run")
 
@@ -80,6 +80,21 @@ def steady_window(scene, extents: dict | None = None) -> RollingWindow:
                    depth=depth, across=max(b / 2 + extents["beside"] * d, fine.fine_across + h), interfaces=interfaces)
 
 
+def steady_problem(scene, comm: MPI.Comm, window: RollingWindow, *, penalty: float | None = None,
+                   **options) -> SteadyRolling:
+    """The steady rolling problem of ``scene`` (its soil's layers, wheel, friction, gravity,
+    strain and relaxation) on the half ``window`` meshed on ``comm``; ``penalty``: the contact's
+    (:func:`~rollsim.solver.scene_model.scene_penalty`; None: the solver's default); ``options``:
+    :class:`SteadyRolling`'s (``petsc_options``, ``control``)."""
+    soil = layer_materials(scene)
+    return SteadyRolling(rolling_window_mesh(comm, window), [soil.by_layer[k] for k in sorted(soil.by_layer)],
+                         wheel=wheel_geometry(scene.wheel), interfaces=window.interfaces,
+                         friction=scene.wheel.friction, unit_weight=scene.soil.gamma,
+                         volumetric_strain=scene.model.volumetric_strain,
+                         relaxation_length=scene.model.relaxation_length,
+                         **({} if penalty is None else {"penalty": penalty}), **options)
+
+
 def run_steady(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_options: dict | None = None,
                write_fields: bool = True, penalty: float | None = None, window: dict | None = None) -> dict:
     """Steady rolling of ``scene`` (rigid cylinder, uniform or layered soil) on ``comm``; writes the run
@@ -89,15 +104,8 @@ def run_steady(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_o
     t_start = time.perf_counter()
     out = make_run_directory(out_dir, comm)
     window = steady_window(scene, window)
-    soil = layer_materials(scene)
-    materials = [soil.by_layer[k] for k in sorted(soil.by_layer)]
-    wheel = wheel_geometry(scene.wheel)
     alpha = scene_penalty(scene, penalty)
-    steady = SteadyRolling(rolling_window_mesh(comm, window), materials, wheel=wheel, interfaces=window.interfaces,
-                           friction=scene.wheel.friction, unit_weight=scene.soil.gamma,
-                           volumetric_strain=scene.model.volumetric_strain, petsc_options=petsc_options,
-                           relaxation_length=scene.model.relaxation_length,
-                           **({} if alpha is None else {"penalty": alpha}))
+    steady = steady_problem(scene, comm, window, petsc_options=petsc_options, penalty=alpha)
     dofs = steady.V.dofmap.index_map.size_global * steady.gdim
     if progress and comm.rank == 0:
         log.info("steady rolling (%s) of a rigid cylinder d = %g m, b = %g m: window %.3g m ahead, %.3g m "
@@ -142,12 +150,9 @@ def run_steady(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_o
                     results.update(inflow=results["last"].outflow, **{"pass": k})
                 final, limit = _at_load(steady, scene, solve, states, results["inflow"], recorded, progress)
                 recorded(final)
-                passes.append(_pass_row(k, steady, final, results["inflow"], passes, progress))
+                passes.append(_pass_row(k, steady, final, results["inflow"], passes, progress, limit))
                 if limit is not None:
                     results["limit"] = limit
-                    passes[-1]["relaxed_sinkage_m"] = final.sinkage
-                    if limit["converged"]:                  # the rate-independent sinkage, as the summary's
-                        passes[-1]["sinkage_m"] = limit["sinkage_m"]
         return None
 
     status, reason, diagnostics = run_protected(body, comm, lambda: {"steady_states": len(rows)})
@@ -158,10 +163,7 @@ def run_steady(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_o
     summary = _summary(scene, steady, window, rows, results.get("last"), line, status, reason, diagnostics,
                        t_start, dofs, alpha)
     if "limit" in results:
-        warnings = summary.pop("warnings", [])
-        summary.update(_limit_summary(results["limit"]))
-        if warnings or "warnings" in summary:
-            summary["warnings"] = warnings + summary.get("warnings", [])
+        _add_limit(summary, results["limit"])
     several = (scene.loading.passes or 1) > 1
     if several:
         summary.update(_passes_summary(passes))
@@ -310,21 +312,21 @@ def relaxation_extrapolation(levels: list[tuple[float, float]]) -> tuple[float, 
     return s3 + correction, correction, p
 
 
-def _limit_summary(limit: dict) -> dict:
+def _add_limit(summary: dict, limit: dict) -> None:
     """``summary.json``'s entries of a state reached through the relaxation's limit:
     ``relaxation_limit``, the last level's sinkage as ``relaxed_sinkage_m`` (the fields, forces
     and rut are that level's) and, where the limit was reached, the extrapolated sinkage as
     ``sinkage_m``; else ``sinkage_m`` stays the last level's, with a warning."""
-    out = {"relaxation_limit": {**limit, "rtol": RELAXATION_RTOL, "start_over_station_spacing": RELAXATION_START},
-           "relaxed_sinkage_m": limit["levels"][-1]["sinkage_m"]}
+    summary.update(relaxation_limit={**limit, "rtol": RELAXATION_RTOL, "start_over_station_spacing": RELAXATION_START},
+                   relaxed_sinkage_m=limit["levels"][-1]["sinkage_m"])
     if limit["converged"]:
-        out["sinkage_m"] = limit["sinkage_m"]
+        summary["sinkage_m"] = limit["sinkage_m"]
     else:
-        out["warnings"] = [f"the relaxation's limit was not reached ({limit['reason']}): the sinkage is the last "
-                           "relaxation length's, short of the rate-independent one"
-                           + (f"; at the observed order {limit['order']:.2g} the last three lengths extrapolate "
-                              f"to {1e3 * limit['sinkage_m']:.4g} mm" if limit["sinkage_m"] is not None else "")]
-    return out
+        summary.setdefault("warnings", []).append(
+            f"the relaxation's limit was not reached ({limit['reason']}): the sinkage is the last relaxation "
+            "length's, short of the rate-independent one" + (
+                f"; at the observed order {limit['order']:.2g} the last three lengths extrapolate to "
+                f"{1e3 * limit['sinkage_m']:.4g} mm" if limit["sinkage_m"] is not None else ""))
 
 
 def _constant_load(steady: SteadyRolling, scene, solve, states: dict, inflow, rtol: float | None = None):
@@ -372,18 +374,25 @@ def _constant_load(steady: SteadyRolling, scene, solve, states: dict, inflow, rt
 SHAKEDOWN_RATIO = 0.02
 
 
-def _pass_row(k: int, steady: SteadyRolling, res, inflow, passes: list[dict], progress: bool) -> dict:
+def _pass_row(k: int, steady: SteadyRolling, res, inflow, passes: list[dict], progress: bool,
+              limit: dict | None = None) -> dict:
     """One pass of ``loading.passes``: its steady sinkage (below the surface it meets), forces, the
     rut it adds (the centre line's settlement at the rear face), the rut of all passes so far, the
-    largest accumulated plastic strain it adds on a streamline leaving the window."""
+    largest accumulated plastic strain it adds on a streamline leaving the window.  Reached
+    through the relaxation's ``limit``: the last level's sinkage as ``relaxed_sinkage_m`` and, where
+    the limit was reached, the extrapolated one as ``sinkage_m`` (as the summary's)."""
     rut = float(_centre_line(steady, res.sinkage)["settlement"][0])
     added = res.outflow.accumulated_plastic_strain - inflow.accumulated_plastic_strain
     row = {"pass": k, "sinkage_m": res.sinkage, "QV_N": res.vertical_force, "QH_N": res.towing_force,
            "spin": res.spin, "rut_m": rut, "total_rut_m": rut + sum(p["rut_m"] for p in passes),
            "added_plastic_strain": steady.comm.allreduce(float(added.max(initial=0.0)), MPI.MAX)}
+    if limit is not None:
+        row["relaxed_sinkage_m"] = res.sinkage
+        if limit["converged"]:
+            row["sinkage_m"] = limit["sinkage_m"]
     if progress and steady.comm.rank == 0:
         log.info("pass %d: s = %.4g mm below the surface it meets, Q_H = %.4g kN, rut %.4g mm (total %.4g mm), "
-                 "accumulated plastic strain added %.3g", k, 1e3 * res.sinkage, res.towing_force / 1e3,
+                 "accumulated plastic strain added %.3g", k, 1e3 * row["sinkage_m"], res.towing_force / 1e3,
                  1e3 * rut, 1e3 * row["total_rut_m"], row["added_plastic_strain"])
     return row
 
