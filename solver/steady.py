@@ -1296,14 +1296,12 @@ class SteadyRolling:
                 eta = ctl.forcing if len(history) == 1 else \
                     min(ctl.forcing, max(0.9 * (history[-1] / history[-2]) ** 2, self._krylov_rtol))
             u0 = self.u.x.array.copy()
-            while True:
+            trial, alpha = self._line_search(inflow, b, norm, scale, eta, u0)
+            if trial is None and eta != self._krylov_rtol:
                 # a loose direction that no step along lowers the residual is solved again tightly
-                trial, alpha = self._line_search(inflow, b, norm, scale, eta, u0)
-                if trial is not None or eta == self._krylov_rtol:
-                    break
                 self.u.x.array[:] = u0
                 b = self.residual(inflow)
-                eta = self._krylov_rtol
+                trial, alpha = self._line_search(inflow, b, norm, scale, self._krylov_rtol, u0)
             if trial is None:
                 self._fail(load_text, f"no Newton step lowers the residual ({norm / scale:.2e} of the "
                                       f"load's after {it} iterations)")
