@@ -255,8 +255,10 @@ def duvaut_lions(res: ReturnResult, sigma_trial: np.ndarray, D: np.ndarray, rela
 
 
 def relax_return(material, res: ReturnResult, sigma_n: np.ndarray, deps: np.ndarray, relaxation: float,
-                 sel=slice(None)) -> None:
+                 sel=slice(None), D: np.ndarray | None = None) -> None:
     """:func:`duvaut_lions` after :func:`return_map` of ``material`` from ``sigma_n`` by ``deps``
-    (the points ``sel`` of ``res``): the trial stress and elasticity from the material."""
-    D = elastic_stiffness(material, sigma_n.shape[1])
+    (the points ``sel`` of ``res``): the trial stress and elasticity from the material (``D``: its
+    :func:`elastic_stiffness`, where the caller holds it)."""
+    if D is None:
+        D = elastic_stiffness(material, sigma_n.shape[1])
     duvaut_lions(res, sigma_n + deps @ D.T, D, relaxation, sel)

@@ -532,8 +532,9 @@ class SteadyRolling:
         self._outflow_map()
 
     def _init_layers(self) -> None:
-        """Each streamline's layer (:attr:`_row_layer`), the rows of each layer's return map
-        (:attr:`_groups`), the inverse elasticity per row; refuses interfaces that cells straddle."""
+        """Each streamline's layer (:attr:`_row_layer`), the material, rows and elasticity of each
+        layer's return map (:attr:`_groups`), the inverse elasticity per row; refuses interfaces
+        that cells straddle."""
         heights = np.unique(np.concatenate(self.comm.allgather(np.unique(np.round(self.mesh.geometry.x[:, self._up],
                                                                                   12)))))
         for depth in self.interfaces:
@@ -542,10 +543,11 @@ class SteadyRolling:
                                  "straddle two layers (RollingWindow's interfaces)")
         #: the layer (index into :attr:`materials`) of each streamline
         self._row_layer = np.searchsorted(self.interfaces, self.streamline_depths)
-        self._groups = [(m, np.flatnonzero(self._row_layer == k)) for k, m in enumerate(self.materials)]
-        self._groups = [(m, rows) for m, rows in self._groups if rows.size]
+        self._groups = [(m, np.flatnonzero(self._row_layer == k), self._D_layers[k])
+                        for k, m in enumerate(self.materials)]
+        self._groups = [group for group in self._groups if group[1].size]
         if len(self._groups) == 1:              # one material on every streamline: no gathering
-            self._groups = [(self._groups[0][0], slice(None))]
+            self._groups = [(self._groups[0][0], slice(None), self._groups[0][2])]
         self._D_inv = np.linalg.inv(self._D_layers)[self._row_layer]          # (rows, ncomp, ncomp)
         #: the elasticity in UFL (the elastic stiffness and the elastic preconditioner)
         self._elastic_ufl = self._elasticity()
@@ -898,10 +900,11 @@ class SteadyRolling:
         relaxed = self.relaxation_length > 0
         for i in range(stations):
             deps = strain[:, i] - previous
-            for material, rows in self._groups:
+            for material, rows, D in self._groups:
                 res = return_map(material, sigma[rows], deps[rows])
                 if relaxed:
-                    relax_return(material, res, sigma[rows], deps[rows], self._station_travel[i] / self.relaxation_length)
+                    relax_return(material, res, sigma[rows], deps[rows], self._station_travel[i] / self.relaxation_length,
+                                 D=D)
                 sigma[rows] = res.sigma
                 eps_p[rows] += res.deps_p
                 acc[rows] += _SQ23 * np.linalg.norm(res.deps_p, axis=1)
