@@ -1,4 +1,4 @@
-"""Steady rolling (rollsim.solver.steady), eight problems:
+"""Steady rolling (rollsim.solver.steady), nine problems:
 
 ``hertz``: against transient rolling on the same elements, plane strain, a Hertz line pressure
 (half-width a = 1 m) on von Mises soil (E = 1000 Pa, nu = 0.3, k = 1 Pa).  The steady solve in its
@@ -31,6 +31,15 @@ same axle height over a block of the same cells (the window with its fine zone s
 ``--travel``; faces and base held), in travel steps of ``--step`` cells: Q_V and Q_H per metre
 and the highest heave ahead of the wheel, the transient's every ``--every`` m of travel.
 
+``rolled``: the frictionless Mn/DOT roller held at ``--sinkage`` mm over frictionless clay (von
+Mises, E = 40 MPa, nu = 0.35, c_dp = 300 kPa) without gravity, 3D, ``--strain``: the steady state
+in the steady driver's window (cells of d / ``--refinement`` at the contact) against the roller
+rolled at the same axle height over a half block of the same cells (the window with its fine zone
+stretched by ``--travel`` d; end faces and base held, rollers on the symmetry plane and the side
+face; the same contact penalty and facet rule), in travel steps of ``--step`` cells: Q_V and Q_H
+of the whole wheel, the roll's every ``--every`` d of travel against the steady Q_V, its mean
+(and range) over the last ``--mean`` d, and the wall times.
+
 ``window``: the frictionless Mn/DOT roller (d = 1.524 m, b = 0.4572 m) held at each ``--sinkage``
 in turn over the report's case-5 soil (Drucker-Prager, E = 40 MPa, nu = 0.35, phi_dp = 27.5 deg,
 c_dp = 194.6 kPa, gamma = 20 kN/m^3), 3D half window of ``rollsim run``'s steady driver on the
@@ -49,8 +58,9 @@ iterations, then the extrapolated sinkage, its correction and the wall time.
 
 ``convergence``: the Mn/DOT roller towed at ``--load`` kN through ``rollsim run``'s steady driver
 over each ``--soil`` (``case5``: the report's case 5, c-phi soil, mu = 0.8; ``case17``: layered
-case 17, three layers of clay with c_dp = 300 kPa, mu = 0.8; ``clay``: the clay of case 2,
-von Mises c_dp = 200 kPa, frictionless; ``case2``: the same clay, mu = 0.8), each ``--strain``,
+case 17, three layers of clay with c_dp = 300 kPa, mu = 0.8; ``clay``: von Mises c_dp = 300 kPa,
+frictionless, at 100 kN; ``case2``: the clay of case 2, c_dp = 200 kPa, mu = 0.8; each at the
+load it was rolled at unless ``--load`` is given), each ``--strain``,
 on fine cells of d / each of ``--levels`` at the contact: the steady sinkage, Q_H, rut, dofs,
 Newton iterations and wall time per level; over the last three levels the observed order and
 the Richardson value, and the last refinement's change.  B-bar reaches its rate-independent
@@ -70,12 +80,13 @@ solved with each (GMRES's Eisenstat-Walker forcing; 0: the fixed tolerance) in t
     mpirun -n 2 python -m benchmarks steady ranks [--cells-per-half-width 2] [--sinkage 2.5 5]
     python -m benchmarks steady towed [--soil clay] [--sinkage 2 3 4] [--cells-per-half-width 4]
     python -m benchmarks steady wheel [--soil case5] [--sinkage 4 6] [--travel 4] [--cells-per-half-width 4]
+    python -m benchmarks steady rolled [--sinkage 12] [--refinement 10] [--strain pointwise] [--travel 2.5]
     mpirun -n 2 python -m benchmarks steady window [--accuracy standard] [--beside 0.3 0.6]
         [--sinkage 3.05 7.62 10.67] [--load 133.5 --friction 0.8]
     mpirun -n 2 python -m benchmarks steady profile [--refinement 20] [--strain pointwise] [--sinkage 3.048]
         [--forcing 0 0.1]
     mpirun -n 2 python -m benchmarks steady convergence [--soil case5 case17 clay case2]
-        [--strain pointwise cell-average] [--levels 10 20 30 40] [--load 133.5] [--out DIR]
+        [--strain pointwise cell-average] [--levels 10 20 30 40] [--load KN] [--out DIR]
     mpirun -n 2 python -m benchmarks steady limit [--refinement 20] [--strain cell-average]
         [--load 133.5] [--friction 0.8]
 """
@@ -126,6 +137,14 @@ def main() -> int:
     wheel.add_argument("--step", type=float, default=0.25, help="the transient roll's travel step, in cells")
     wheel.add_argument("--every", type=float, default=0.5, help="m of travel between the transient's rows")
     wheel.add_argument("--cells-per-half-width", type=int, default=4, help="cells per 0.1524 m")
+    rolled = sub.add_parser("rolled", help="3D roller on clay: the steady state against the roll on the same cells")
+    rolled.add_argument("--sinkage", type=float, default=12.0, help="mm")
+    rolled.add_argument("--refinement", type=float, default=10.0, help="elements per d at the contact")
+    rolled.add_argument("--strain", choices=("pointwise", "cell-average"), default="pointwise")
+    rolled.add_argument("--travel", type=float, default=2.5, help="the roll's travel / d")
+    rolled.add_argument("--step", type=float, default=0.25, help="the roll's travel step, in cells")
+    rolled.add_argument("--every", type=float, default=0.25, help="travel / d between the roll's rows")
+    rolled.add_argument("--mean", type=float, default=0.5, help="travel / d over which the roll's Q_V is averaged")
     extent = sub.add_parser("window", help="3D roller on the case-5 soil: the side face's distance")
     extent.add_argument("--accuracy", default="standard", help="the preset of the cells")
     extent.add_argument("--beside", type=float, nargs="+", default=[0.3, 0.6], help="side face from the wheel's edge, d")
@@ -142,7 +161,7 @@ def main() -> int:
     conv.add_argument("--strain", nargs="+", choices=("pointwise", "cell-average"), default=["pointwise", "cell-average"])
     conv.add_argument("--levels", type=float, nargs="+", default=[10.0, 20.0, 30.0, 40.0],
                       help="elements per d at the contact")
-    conv.add_argument("--load", type=float, default=133.5, help="kN")
+    conv.add_argument("--load", type=float, help="kN (default: the soil's, as rolled)")
     conv.add_argument("--out", help="directory of the JSON rows")
     prof = sub.add_parser("profile", help="3D roller, one steady state: where the time goes")
     prof.add_argument("--refinement", type=float, default=20.0, help="elements per d at the contact")
@@ -153,7 +172,7 @@ def main() -> int:
     args = ap.parse_args()
     run = {"hertz": hertz_against_transient, "ranks": distributed_against_serial, "towed": towed_surface_layer,
            "wheel": steady_against_transient, "window": side_face, "limit": relaxation_limit,
-           "convergence": mesh_convergence, "profile": profile_one_state}
+           "convergence": mesh_convergence, "profile": profile_one_state, "rolled": steady_against_rolled}
     return run[args.problem](args)
 
 
@@ -264,6 +283,94 @@ def transient_roll(window: RollingWindow, soil, R: float, sinkage: float, travel
     return rows
 
 
+def steady_against_rolled(args) -> int:
+    """The ``rolled`` problem (module docstring)."""
+    from rollsim.scene import parse_scene
+    from rollsim.solver.drivers.steady_rolling import steady_window
+    comm = MPI.COMM_WORLD
+    scene = parse_scene({"wheel": {"diameter": f"{ROLLER.diameter} m", "width": f"{ROLLER.width} m"},
+                         "soil": {"gamma": "20 kN/m^3", "layers": CONVERGENCE_SOILS["clay"][1]},
+                         "loading": {"protocol": "rolling-constant-load", "load": "100 kN"},
+                         "model": {"rolling": "steady", "refinement": args.refinement,
+                                   "volumetric_strain": args.strain}})
+    soil, window, sinkage = VonMises(E=40e6, nu=0.35, yield_stress=300e3), steady_window(scene), 1e-3 * args.sinkage
+    t0 = time.perf_counter()
+    st = SteadyRolling(rolling_window_mesh(comm, window), soil, wheel=ROLLER, volumetric_strain=args.strain)
+    for s in np.append(np.arange(2e-3, sinkage, 2e-3), sinkage):
+        res = st.solve_sinkage(float(s))
+    steady_wall = comm.allreduce(time.perf_counter() - t0, MPI.MAX)
+    dofs = st.V.dofmap.index_map.size_global * st.gdim
+    h = float(np.diff(window.x_nodes()).min())
+    t0 = time.perf_counter()
+    rows = rolled_roller(comm, window, soil, args.strain, sinkage, round(args.travel * ROLLER.diameter / h) * h, args.step)
+    rolled_wall = comm.allreduce(time.perf_counter() - t0, MPI.MAX)
+    if comm.rank == 0:
+        print(f"3D Mn/DOT roller held at {args.sinkage:g} mm on frictionless clay (von Mises c_dp = 300 kPa, no "
+              f"gravity), {args.strain}, fine cells d/{args.refinement:g}; steady window {dofs} dofs\n"
+              f"| run | travel (d) | Q_V (kN) | Q_H (kN) | against steady | wall (s) |\n|---|---|---|---|---|---|")
+        print(f"| steady | | {res.vertical_force / 1e3:.2f} | {res.towing_force / 1e3:.2f} | | {steady_wall:.0f} |")
+        travel = np.array([row["travel"] for row in rows]) / ROLLER.diameter
+        shown = sorted(set(np.searchsorted(travel, np.arange(args.every, travel[-1] + 1e-9, args.every) - 1e-9)
+                           .tolist()) | {len(rows) - 1})
+        for i in shown:
+            q = rows[i]["QV"]
+            print(f"| rolled | {travel[i]:.2f} | {q / 1e3:.2f} | {rows[i]['QH'] / 1e3:.2f} | "
+                  f"{100 * (q / res.vertical_force - 1):+.2f} % | " + (f"{rolled_wall:.0f} |" if i == len(rows) - 1 else "|"))
+        last = np.array([row["QV"] for row in rows])[travel >= travel[-1] - args.mean - 1e-9]
+        print(f"rolled Q_V over the last {args.mean:g} d: mean {last.mean() / 1e3:.2f} kN ({last.min() / 1e3:.2f} to "
+              f"{last.max() / 1e3:.2f}), {100 * (last.mean() / res.vertical_force - 1):+.2f} % against steady")
+    return 0
+
+
+def rolled_roller(comm, window: RollingWindow, soil, strain: str, sinkage: float, travel: float,
+                  step: float) -> list[dict]:
+    """The reference of the ``rolled`` problem: the frictionless :data:`ROLLER` pressed to ``sinkage``
+    (m) at x = 0 and rolled by ``travel`` (m, a whole number of fine cells) at that axle height, in
+    steps of ``step`` cells, over a half block of ``window``'s cells with its fine zone stretched by
+    the travel (end faces and base held, rollers on the symmetry plane and the side face); after
+    each step the travel (m), Q_V and Q_H of the whole wheel (N)."""
+    from dolfinx import fem, mesh as dmesh
+    from petsc4py import PETSc
+    from rollsim.solver import PlasticityProblem, StepControl, solve_load_path
+    from rollsim.solver.contact import RigidWheelContact
+    h = float(np.diff(window.x_nodes()).min())
+    cells = int(round(travel / h))
+    xs = window.x_nodes()
+    nodes = [np.concatenate([xs[xs < -1e-9], np.arange(cells + 1) * h, xs[xs > 1e-9] + cells * h]),
+             window.across_nodes(), window.y_nodes()]
+    msh = dmesh.create_box(comm, [np.zeros(3), np.array([len(n) - 1.0 for n in nodes])], [len(n) - 1 for n in nodes],
+                           dmesh.CellType.hexahedron)
+    for k, n in enumerate(nodes):
+        msh.geometry.x[:, k] = np.interp(msh.geometry.x[:, k], np.arange(len(n)), n)
+    pb = PlasticityProblem(msh, soil, volumetric_strain=strain)
+    fdim = msh.topology.dim - 1
+    (x0, x1), y_side, base = (nodes[0][0], nodes[0][-1]), nodes[1][-1], nodes[2][0]
+    held = dmesh.locate_entities_boundary(msh, fdim, lambda p: np.isclose(p[0], x0) | np.isclose(p[0], x1)
+                                          | np.isclose(p[2], base))
+    sides = dmesh.locate_entities_boundary(msh, fdim, lambda p: np.isclose(p[1], 0.0) | np.isclose(p[1], y_side))
+    pb.bcs = [fem.dirichletbc(fem.Function(pb.V), fem.locate_dofs_topological(pb.V, fdim, held)),
+              fem.dirichletbc(PETSc.ScalarType(0.0), fem.locate_dofs_topological(pb.V.sub(1), fdim, sides),
+                              pb.V.sub(1))]
+    surface = dmesh.locate_entities_boundary(msh, fdim, lambda p: np.isclose(p[2], 0.0))
+    tags = dmesh.meshtags(msh, fdim, np.sort(surface), np.ones(len(surface), np.int32))
+    # the steady window's penalty (kappa from the finest column spacing) and facet rule
+    contact = RigidWheelContact(pb, ROLLER, tags, (1,), quadrature_degree=12, h=h, centre=[0.0, 0.0, ROLLER.diameter / 2])
+    top = ROLLER.diameter / 2
+    solve_load_path(pb, lambda t: contact.set_pose(centre=[0.0, 0.0, top - sinkage * t]),
+                    StepControl(dt=0.1, dt_max=0.1))
+    rows = []
+
+    def record(t):
+        forces = contact.forces()
+        rows.append({"travel": t, "QV": 2 * forces.vertical, "QH": 2 * forces.horizontal})
+
+    ds = step * h
+    solve_load_path(pb, lambda t: contact.set_pose(centre=[t, 0.0, top - sinkage]),
+                    StepControl(t_end=cells * h, dt=ds, dt_max=ds, dt_min=ds / 64, easy_iterations=1000),
+                    on_step=record)
+    return rows
+
+
 class _Cuts(logging.Handler):
     """Counts the steady solver's step cuts (its log lines)."""
 
@@ -357,13 +464,14 @@ def _layer(model: str, c_dp: str, phi_dp: str | None = None, **extra) -> dict:
     return {"model": model, "E": "40 MPa", "nu": 0.35, "c_dp": c_dp, **({"phi_dp": phi_dp} if phi_dp else {}), **extra}
 
 
-#: the soils of the ``convergence`` problem: (friction, layers)
+#: the soils of the ``convergence`` problem: (friction, layers, load in kN), those of the rolled
+#: references (docs/speed-accuracy-details.md, "Constant-load rolling: mesh convergence")
 CONVERGENCE_SOILS = {
-    "case5": (0.8, [_layer("drucker-prager", "194.6 kPa", "27.5 deg")]),
+    "case5": (0.8, [_layer("drucker-prager", "194.6 kPa", "27.5 deg")], 133.5),
     "case17": (0.8, [_layer("von-mises", "300 kPa", thickness="0.6096 m"),
-                     _layer("von-mises", "300 kPa", thickness="0.6096 m"), _layer("von-mises", "300 kPa")]),
-    "clay": (0.0, [_layer("von-mises", "200 kPa")]),
-    "case2": (0.8, [_layer("von-mises", "200 kPa")]),
+                     _layer("von-mises", "300 kPa", thickness="0.6096 m"), _layer("von-mises", "300 kPa")], 133.5),
+    "clay": (0.0, [_layer("von-mises", "300 kPa")], 100.0),
+    "case2": (0.8, [_layer("von-mises", "200 kPa")], 133.5),
 }
 
 
@@ -373,17 +481,18 @@ def mesh_convergence(args) -> int:
     from rollsim.scene import parse_scene
     comm = MPI.COMM_WORLD
     for soil in args.soil:
-        friction, layers = CONVERGENCE_SOILS[soil]
+        friction, layers, load = CONVERGENCE_SOILS[soil]
+        load = args.load or load
         for strain in args.strain:
             rows = []
             if comm.rank == 0:
-                print(f"\n{soil}, {strain}, towed at {args.load:g} kN\n| cells at the contact | dofs | status | "
+                print(f"\n{soil}, {strain}, towed at {load:g} kN\n| cells at the contact | dofs | status | "
                       "sinkage (mm) | Q_H (kN) | rut (mm) | Newton its | wall (s) |\n|---|---|---|---|---|---|---|---|",
                       flush=True)
             for level in args.levels:
                 scene = parse_scene({"wheel": {"diameter": "1.524 m", "width": "0.4572 m", "friction": friction},
                                      "soil": {"gamma": "20 kN/m^3", "layers": layers},
-                                     "loading": {"protocol": "rolling-constant-load", "load": f"{args.load} kN"},
+                                     "loading": {"protocol": "rolling-constant-load", "load": f"{load} kN"},
                                      "model": {"rolling": "steady", "refinement": level, "volumetric_strain": strain}})
                 r, _ = _steady_run(scene, comm)
                 rows.append({"level": level, "dofs": r["dofs"], "status": r["status"], "reason": r.get("reason"),
