@@ -300,7 +300,7 @@ def steady_against_rolled(args) -> int:
         res = st.solve_sinkage(float(s))
     steady_wall = comm.allreduce(time.perf_counter() - t0, MPI.MAX)
     dofs = st.V.dofmap.index_map.size_global * st.gdim
-    h = float(np.diff(window.x_nodes()).min())
+    h = window.cell_size / 2 ** window.refinement
     t0 = time.perf_counter()
     rows = rolled_roller(comm, window, soil, args.strain, sinkage, round(args.travel * ROLLER.diameter / h) * h, args.step)
     rolled_wall = comm.allreduce(time.perf_counter() - t0, MPI.MAX)
@@ -333,29 +333,23 @@ def rolled_roller(comm, window: RollingWindow, soil, strain: str, sinkage: float
     from petsc4py import PETSc
     from rollsim.solver import PlasticityProblem, StepControl, solve_load_path
     from rollsim.solver.contact import RigidWheelContact
-    h = float(np.diff(window.x_nodes()).min())
-    cells = int(round(travel / h))
-    xs = window.x_nodes()
-    nodes = [np.concatenate([xs[xs < -1e-9], np.arange(cells + 1) * h, xs[xs > 1e-9] + cells * h]),
-             window.across_nodes(), window.y_nodes()]
-    msh = dmesh.create_box(comm, [np.zeros(3), np.array([len(n) - 1.0 for n in nodes])], [len(n) - 1 for n in nodes],
-                           dmesh.CellType.hexahedron)
-    for k, n in enumerate(nodes):
-        msh.geometry.x[:, k] = np.interp(msh.geometry.x[:, k], np.arange(len(n)), n)
+    h = window.cell_size / 2 ** window.refinement
+    msh = stretched_block(window, travel, comm)
     pb = PlasticityProblem(msh, soil, volumetric_strain=strain)
     fdim = msh.topology.dim - 1
-    (x0, x1), y_side, base = (nodes[0][0], nodes[0][-1]), nodes[1][-1], nodes[2][0]
-    held = dmesh.locate_entities_boundary(msh, fdim, lambda p: np.isclose(p[0], x0) | np.isclose(p[0], x1)
-                                          | np.isclose(p[2], base))
-    sides = dmesh.locate_entities_boundary(msh, fdim, lambda p: np.isclose(p[1], 0.0) | np.isclose(p[1], y_side))
+    lo = np.min(comm.allgather(msh.geometry.x.min(axis=0)), axis=0)        # the block's corners
+    hi = np.max(comm.allgather(msh.geometry.x.max(axis=0)), axis=0)
+    held = dmesh.locate_entities_boundary(msh, fdim, lambda p: np.isclose(p[0], lo[0]) | np.isclose(p[0], hi[0])
+                                          | np.isclose(p[2], lo[2]))
+    sides = dmesh.locate_entities_boundary(msh, fdim, lambda p: np.isclose(p[1], 0.0) | np.isclose(p[1], hi[1]))
     pb.bcs = [fem.dirichletbc(fem.Function(pb.V), fem.locate_dofs_topological(pb.V, fdim, held)),
               fem.dirichletbc(PETSc.ScalarType(0.0), fem.locate_dofs_topological(pb.V.sub(1), fdim, sides),
                               pb.V.sub(1))]
     surface = dmesh.locate_entities_boundary(msh, fdim, lambda p: np.isclose(p[2], 0.0))
     tags = dmesh.meshtags(msh, fdim, np.sort(surface), np.ones(len(surface), np.int32))
     # the steady window's penalty (kappa from the finest column spacing) and facet rule
-    contact = RigidWheelContact(pb, ROLLER, tags, (1,), quadrature_degree=12, h=h, centre=[0.0, 0.0, ROLLER.diameter / 2])
-    top = ROLLER.diameter / 2
+    top = ROLLER.diameter / 2                   # the axle's height over the surface at no sinkage
+    contact = RigidWheelContact(pb, ROLLER, tags, (1,), quadrature_degree=12, h=h, centre=[0.0, 0.0, top])
     solve_load_path(pb, lambda t: contact.set_pose(centre=[0.0, 0.0, top - sinkage * t]),
                     StepControl(dt=0.1, dt_max=0.1))
     rows = []
@@ -366,7 +360,7 @@ def rolled_roller(comm, window: RollingWindow, soil, strain: str, sinkage: float
 
     ds = step * h
     solve_load_path(pb, lambda t: contact.set_pose(centre=[t, 0.0, top - sinkage]),
-                    StepControl(t_end=cells * h, dt=ds, dt_max=ds, dt_min=ds / 64, easy_iterations=1000),
+                    StepControl(t_end=travel, dt=ds, dt_max=ds, dt_min=ds / 64, easy_iterations=1000),
                     on_step=record)
     return rows
 

@@ -123,20 +123,23 @@ def differences(steady_state: BehindTheLoad, transient: BehindTheLoad) -> dict[s
             "settlement": rel(steady_state.surface_displacement[1:], transient.surface_displacement[1:])}
 
 
-def stretched_block(window: RollingWindow, travel: float):
-    """A transient reference's plane-strain block: the cells of ``window`` with its fine zone
-    stretched by ``travel`` (m, a whole number of fine cells) along x."""
+def stretched_block(window: RollingWindow, travel: float, comm: MPI.Comm = MPI.COMM_SELF):
+    """A transient reference's block on ``comm``: the cells of ``window`` (plane strain, or a 3D
+    half window) with its fine zone stretched by ``travel`` (m, a whole number of fine cells)
+    along x."""
     h = window.cell_size / 2 ** window.refinement
     cells = int(round(travel / h))
     if abs(cells * h - travel) > 1e-9 * window.half_width:
         raise ValueError(f"travel {travel} must be a whole number of cells ({h} m)")
     xs = window.x_nodes()
-    xs = np.concatenate([xs[xs < -1e-9], np.arange(cells + 1) * h, xs[xs > 1e-9] + travel])
-    ys = window.y_nodes()
-    msh = dmesh.create_rectangle(MPI.COMM_SELF, [np.array([0.0, 0.0]), np.array([len(xs) - 1.0, len(ys) - 1.0])],
-                                 [len(xs) - 1, len(ys) - 1], dmesh.CellType.quadrilateral)
-    msh.geometry.x[:, 0] = np.interp(msh.geometry.x[:, 0], np.arange(len(xs)), xs)
-    msh.geometry.x[:, 1] = np.interp(msh.geometry.x[:, 1], np.arange(len(ys)), ys)
+    nodes = [np.concatenate([xs[xs < -1e-9], np.arange(cells + 1) * h, xs[xs > 1e-9] + travel])]
+    nodes += [window.y_nodes()] if window.dimension == 2 else [window.across_nodes(), window.y_nodes()]
+    counts = [len(n) - 1 for n in nodes]
+    corners = [np.zeros(len(counts)), np.array(counts, dtype=float)]
+    msh = (dmesh.create_rectangle(comm, corners, counts, dmesh.CellType.quadrilateral) if window.dimension == 2
+           else dmesh.create_box(comm, corners, counts, dmesh.CellType.hexahedron))
+    for k, n in enumerate(nodes):
+        msh.geometry.x[:, k] = np.interp(msh.geometry.x[:, k], np.arange(len(n)), n)
     return msh
 
 
