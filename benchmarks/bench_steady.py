@@ -287,13 +287,15 @@ def steady_against_rolled(args) -> int:
     """The ``rolled`` problem (module docstring)."""
     from rollsim.scene import parse_scene
     from rollsim.solver.drivers.steady_rolling import steady_window
+    from rollsim.solver.scene_model import layer_materials
     comm = MPI.COMM_WORLD
     scene = parse_scene({"wheel": {"diameter": f"{ROLLER.diameter} m", "width": f"{ROLLER.width} m"},
                          "soil": {"gamma": "20 kN/m^3", "layers": CONVERGENCE_SOILS["clay"][1]},
                          "loading": {"protocol": "rolling-constant-load", "load": "100 kN"},
                          "model": {"rolling": "steady", "refinement": args.refinement,
                                    "volumetric_strain": args.strain}})
-    soil, window, sinkage = VonMises(E=40e6, nu=0.35, yield_stress=300e3), steady_window(scene), 1e-3 * args.sinkage
+    # the scene's gravity sizes the window only: both solves run without it
+    soil, window, sinkage = layer_materials(scene).by_layer[1], steady_window(scene), 1e-3 * args.sinkage
     t0 = time.perf_counter()
     st = SteadyRolling(rolling_window_mesh(comm, window), soil, wheel=ROLLER, volumetric_strain=args.strain)
     for s in np.append(np.arange(2e-3, sinkage, 2e-3), sinkage):
