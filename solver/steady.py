@@ -228,13 +228,16 @@ class RollingWindow:
         return self._refined(nodes)
 
     def across_nodes(self) -> np.ndarray:
-        """3D: node abscissae across the travel from the symmetry plane to the side face (m)."""
+        """3D: node abscissae across the travel from the symmetry plane to the side face (m): a
+        row of nodes at the load's edge (the wheel's rim is a line of the mesh, never inside a
+        cell), equal cells of at most ``cell_size`` on either side of it in the fine zone."""
         if self.across is None:
             raise ValueError("a plane-strain window has no nodes across the travel")
-        h, fine = self.cell_size, self.fine_across
-        core = np.linspace(0.0, fine, int(round(fine / h)) + 1)
+        h, fine, edge = self.cell_size, self.fine_across, self.load_half_width_across
+        under = np.linspace(0.0, edge, math.ceil(edge / h - 1e-9) + 1)
+        beyond = np.linspace(edge, fine, max(1, math.ceil((fine - edge) / h - 1e-9)) + 1)[1:] if fine > edge else []
         side = fine + np.cumsum(_graded_cells(h, self.across - fine, self.grading))
-        return self._refined(np.concatenate([core, side]))
+        return self._refined(np.concatenate([under, beyond, side]))
 
 
 def rolling_window_mesh(comm: MPI.Comm, window: RollingWindow):
