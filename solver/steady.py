@@ -1256,7 +1256,8 @@ class SteadyRolling:
         """Set up the next solve at ``sinkage`` (m) from ``states`` (sinkage -> (displacement
         array, spin, Q_V) of converged states): from the deepest state short of it, with its spin
         and the secant predictor of the two deepest (a failed step is cut from there); with none
-        short of it and the last solve deeper, from the undisturbed soil."""
+        short of it and the last solve deeper, from the undisturbed soil and spin 1 (:meth:`restart`:
+        a failed spin search leaves its last trial spin behind)."""
         shallower = [s for s in states if s < sinkage]
         if shallower:
             self._last_sinkage = max(shallower)
@@ -1264,7 +1265,7 @@ class SteadyRolling:
             self.u.x.array[:] = u
             self._converged = [(s, states[s][0], states[s][1]) for s in sorted(shallower)[-2:]]
         elif self._last_sinkage is not None and self._last_sinkage > sinkage:
-            self.u.x.array[:], self._last_sinkage = 0.0, None
+            self.restart()
 
     def _load_norm(self) -> float:
         """Norm of the load vector (N/m) at the current displacement (the contact's depends on it)."""

@@ -608,6 +608,23 @@ def test_free_rolling_on_plastic_soil_resists_more_than_frictionless():
 
 
 @pytest.mark.serial
+def test_continuing_below_the_last_solve_starts_from_undisturbed_soil_and_spin():
+    """Set up for a sinkage shallower than the last solve with no state short of it (the
+    relaxation's route after a failed rate-independent one), the solve starts from the
+    undisturbed soil turning at xi = 1, not at the spin a failed search left behind: the same
+    state as a fresh solver's, to solver tolerance."""
+    st = SteadyRolling(rolling_window_mesh(MPI.COMM_SELF, FRICTION_WINDOW), SOIL, wheel=WHEEL, friction=0.3)
+    st.solve_free_rolling(0.008)
+    st.spin = 0.5                                       # what a failed spin search may leave
+    st.continue_from({}, 0.004)
+    assert st.spin == 1.0 and not st.u.x.array.any()
+    res = st.solve_free_rolling(0.004)
+    ref = SteadyRolling(st.mesh, SOIL, wheel=WHEEL, friction=0.3).solve_free_rolling(0.004)
+    assert res.spin == pytest.approx(ref.spin, abs=1e-9)
+    assert res.vertical_force == pytest.approx(ref.vertical_force, rel=1e-8)
+
+
+@pytest.mark.serial
 def test_constant_load_finds_the_sinkage_that_carries_it():
     """Von Mises soil under the frictionless cylinder carrying 7 N/m, from the 8 mm state: the
     secant on the sinkage finds 9.784 mm (measured: 3 solves after the start, Q_V within 1.5e-9 of
