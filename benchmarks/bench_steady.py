@@ -254,7 +254,7 @@ def transient_roll(window: RollingWindow, soil, R: float, sinkage: float, travel
     from dolfinx import mesh as dmesh
     from rollsim.solver import PlasticityProblem, StepControl, solve_load_path
     from rollsim.solver.contact import Circle, RigidWheelContact
-    h = window.cell_size / 2 ** window.refinement
+    h = window.fine_cell_size
     cells = int(round(travel / h))
     pb = PlasticityProblem(stretched_block(window, cells * h), soil)
     msh = pb.mesh
@@ -302,7 +302,7 @@ def steady_against_rolled(args) -> int:
         res = st.solve_sinkage(float(s))
     steady_wall = comm.allreduce(time.perf_counter() - t0, MPI.MAX)
     dofs = st.V.dofmap.index_map.size_global * st.gdim
-    h = window.cell_size / 2 ** window.refinement
+    h = window.fine_cell_size
     t0 = time.perf_counter()
     rows = rolled_roller(comm, window, soil, args.strain, sinkage, round(args.travel * ROLLER.diameter / h) * h, args.step)
     rolled_wall = comm.allreduce(time.perf_counter() - t0, MPI.MAX)
@@ -335,7 +335,7 @@ def rolled_roller(comm, window: RollingWindow, soil, strain: str, sinkage: float
     from petsc4py import PETSc
     from rollsim.solver import PlasticityProblem, StepControl, solve_load_path
     from rollsim.solver.contact import RigidWheelContact
-    h = window.cell_size / 2 ** window.refinement
+    h = window.fine_cell_size
     msh = stretched_block(window, travel, comm)
     pb = PlasticityProblem(msh, soil, volumetric_strain=strain)
     fdim = msh.topology.dim - 1

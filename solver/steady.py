@@ -190,6 +190,11 @@ class RollingWindow:
         return self.half_width / self.cells_per_half_width
 
     @property
+    def fine_cell_size(self) -> float:
+        """Side of the cells in the fine zone after ``refinement`` (m)."""
+        return self.cell_size / 2 ** self.refinement
+
+    @property
     def fine_length(self) -> float:
         """Extent of the fine zone from the load's centre, a whole number of cells (m)."""
         return math.ceil(self.fine_extent * self.cells_per_half_width - 1e-9) * self.cell_size
@@ -235,7 +240,7 @@ class RollingWindow:
             raise ValueError("a plane-strain window has no nodes across the travel")
         h, fine, edge = self.cell_size, self.fine_across, self.load_half_width_across
         under = np.linspace(0.0, edge, math.ceil(edge / h - 1e-9) + 1)
-        beyond = np.linspace(edge, fine, max(1, math.ceil((fine - edge) / h - 1e-9)) + 1)[1:] if fine > edge else []
+        beyond = np.linspace(edge, fine, math.ceil((fine - edge) / h - 1e-9) + 1)[1:]     # none when fine = edge
         side = fine + np.cumsum(_graded_cells(h, self.across - fine, self.grading))
         return self._refined(np.concatenate([under, beyond, side]))
 

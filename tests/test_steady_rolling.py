@@ -127,7 +127,7 @@ def stretched_block(window: RollingWindow, travel: float, comm: MPI.Comm = MPI.C
     """A transient reference's block on ``comm``: the cells of ``window`` (plane strain, or a 3D
     half window) with its fine zone stretched by ``travel`` (m, a whole number of fine cells)
     along x."""
-    h = window.cell_size / 2 ** window.refinement
+    h = window.fine_cell_size
     cells = int(round(travel / h))
     if abs(cells * h - travel) > 1e-9 * window.half_width:
         raise ValueError(f"travel {travel} must be a whole number of cells ({h} m)")
