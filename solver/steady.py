@@ -833,6 +833,19 @@ class SteadyRolling:
         return self._friction.sweep(self._surface_displacement(self.u.x.array), float(self.axle_height.value),
                                     self.surface, self.spin)
 
+    def _add_friction_stiffness(self, M: PETSc.Mat) -> None:
+        """Add the friction's nodal stiffness (:meth:`SurfaceFriction.stiffness`, the free dofs of
+        this rank's own surface nodes) to the preconditioner's matrix ``M``."""
+        free = self._surface_free
+        blocks = self._friction.stiffness() * (free[..., :, None] & free[..., None, :])
+        first = self.V.dofmap.index_map.local_range[0]
+        bs, g = self.V.dofmap.index_map_bs, self.gdim
+        for node, block in zip(self._friction.rows.nodes.ravel(), blocks.reshape(-1, g, g)):
+            if block.any():
+                dofs = ((first + node) * bs + np.arange(g)).astype(PETSc.IntType)
+                M.setValues(dofs, dofs, block, addv=PETSc.InsertMode.ADD_VALUES)
+        M.assemble()
+
     def _add_friction(self, b: PETSc.Vec, forces: np.ndarray) -> None:
         """Subtract the friction's nodal forces on the soil from the residual ``b`` (free dofs)."""
         with b.localForm() as local:
@@ -975,7 +988,8 @@ class SteadyRolling:
     def _update_preconditioner(self, refactor: bool = True) -> None:
         """The contact's stiffness at the current displacement, in the Jacobian action and (with
         ``refactor``) the preconditioner; the preconditioner (the elastic stiffness, or the return
-        map's local tangent, plus the contact's) then factored again."""
+        map's local tangent, plus the contact's and the friction's nodal stiffness) then factored
+        again."""
         if self._contact_stiffness is not None:
             if self._contact_matrix is not None:
                 self._contact_matrix.destroy()
@@ -998,6 +1012,8 @@ class SteadyRolling:
             self._elastic_full.copy(M, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
         if self._contact_matrix is not None:
             M.axpy(1.0, self._contact_matrix, structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
+        if self._friction is not None:
+            self._add_friction_stiffness(M)
         first = self._preconditioner_matrix is None
         self._preconditioner_matrix = self._reduced_matrix(M, self._preconditioner_matrix)
         if first:

@@ -180,6 +180,30 @@ class SurfaceFriction:
                            contact=dist.reshape(pN.shape) < 0, hessian=hessian, spin=spin)
         return self.rows.weights[..., None] * np.einsum("rsm,rsmi->rsi", t, T)
 
+    def stiffness(self) -> np.ndarray:
+        """Each surface node's own block of the derivative of the last :meth:`sweep`'s nodal
+        forces by that node's displacement, negated (N/m, (rows, stations, gdim, gdim)): the stick
+        stiffness along the tangent plane, in slip its part across the sliding direction and the
+        pressure's pull along it.  The coupling with the upstream stations and the turn of the
+        tangent frame with the normal are left out: a preconditioner's block (:meth:`tangent` is
+        the exact derivative)."""
+        st = self._state
+        if self.rows.nodes.size == 0:
+            return np.zeros(st["P"].shape + (self.gdim,))
+        T, q, n = st["T"], st["direction"], st["n"]
+        m, g = T.shape[-2], self.gdim
+        turn = np.zeros((g, g))
+        turn[0, -1], turn[-1, 0] = -1.0, 1.0                # _turn as a matrix
+        # the slip's derivative by the node's own displacement: its difference less the wheel's turn
+        own = np.eye(g) - (st["spin"] * self._dx / self.radius)[:, None, None] * turn
+        own[0] = 0.0                                        # the first station has no upstream difference
+        slide = np.eye(m) - q[..., :, None] * q[..., None, :]
+        across = np.where(st["stick"][..., None, None], np.eye(m), st["scale"][..., None, None] * slide)
+        K = self.k_t * np.einsum("rsmi,rsmn,rsnk,skj->rsij", T, across, T, own)
+        K += np.where(st["stick"][..., None, None], 0.0,
+                      self.mu * self.kappa * np.einsum("rsmi,rsm,rsj->rsij", T, q, n))
+        return self.rows.weights[..., None, None] * np.where(st["contact"][..., None, None], K, 0.0)
+
     def tangent(self, dU: np.ndarray, dspin: float = 0.0) -> np.ndarray:
         """The derivative of the last :meth:`sweep`'s nodal forces (N) for the surface nodes'
         displacement increment ``dU`` (m, (rows, stations, gdim)) and the spin's ``dspin``."""

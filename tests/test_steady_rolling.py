@@ -839,6 +839,38 @@ def test_friction_tangent_is_the_derivative_of_its_sweep(gdim):
     assert np.abs((forward - backward) / (2 * h) - exact).max() <= 1e-5 * np.abs(exact).max()
 
 
+@pytest.mark.parametrize("gdim", [2, 3])
+def test_friction_stiffness_is_each_nodes_own_derivative(gdim):
+    """The friction's nodal stiffness (the preconditioner's blocks) is, at sticking and sliding
+    stations alike, the derivative of each node's force by its own displacement with the tangent
+    frame held (the exact tangent without the wheel's curvature), negated; zero out of contact."""
+    xs = np.linspace(0.6, -0.9, 41)
+    if gdim == 3:
+        wheel = CylinderWheel(1.524, 0.4572, 0.05)
+        X = np.array([[x, y, 0.0] for y in np.linspace(0.0, 0.3, 13) for x in xs])
+    else:
+        wheel = Circle(1.524)
+        X = np.column_stack([xs, np.zeros_like(xs)])
+    rows = SurfaceRows.of(X, 0.0, 1e-9)
+    friction = SurfaceFriction(rows, wheel, 0.3, 1e8, tangential_ratio=0.3)
+    U = np.zeros(rows.nodes.shape + (gdim,))
+    U[..., -1] = -0.01 * np.exp(-(rows.x / 0.25) ** 2)
+    U[..., 0] = 1e-4 * np.sin(rows.x * 7.0)
+    friction.sweep(U, wheel.diameter / 2 - 0.015, 0.0, 0.99)
+    K = friction.stiffness()
+    st = friction._state
+    st["hessian"] = np.zeros_like(st["hessian"])                      # the tangent frame held
+    stick, contact = st["stick"] & st["contact"], st["contact"]
+    nodes = [tuple(np.argwhere(stick)[0]), tuple(np.argwhere(stick)[-1]), tuple(np.argwhere(contact & ~stick)[0]),
+             tuple(np.argwhere(contact & ~stick)[-1])]
+    for r, j in nodes:
+        for c in range(gdim):
+            dU = np.zeros_like(U)
+            dU[r, j, c] = 1.0
+            assert friction.tangent(dU)[r, j] == pytest.approx(-K[r, j, :, c], rel=1e-10, abs=1e-10 * np.abs(K).max())
+    assert np.abs(K[~contact]).max() == 0 and np.abs(K[contact]).max() > 0
+
+
 @pytest.mark.serial
 def test_stick_stiffness_regularises_the_friction_only():
     """The friction's stick stiffness (``tangential_ratio`` of the normal penalty) is a
