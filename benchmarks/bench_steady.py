@@ -1,4 +1,4 @@
-"""Steady rolling (rollsim.solver.steady), nine problems:
+"""Steady rolling (rollsim.solver.steady), ten problems:
 
 ``hertz``: against transient rolling on the same elements, plane strain, a Hertz line pressure
 (half-width a = 1 m) on von Mises soil (E = 1000 Pa, nu = 0.3, k = 1 Pa).  The steady solve in its
@@ -16,6 +16,15 @@ in this run.
 kPa, gravity) at the sinkages ``--sinkage``, 3D half window of hexahedra; run under ``mpirun -n
 N``: the solve distributed over the N ranks, then the same solve on one rank (every rank at once,
 each on its own core), their wall times (set-up included) and the speed-up, the forces of the two.
+
+``reach``: the Mn/DOT cylinder towed (``--friction``, the spin found for zero axle torque) in plane
+strain over each ``--soil`` (``case8``: the report's rolling case 8, Drucker-Prager phi_dp =
+45.4 deg, c_dp = 89.1 kPa; ``case2``: its clay, von Mises c_dp = 200 kPa; E = 40 MPa, nu = 0.35,
+gravity), pointwise, in the steady driver's window (0.4 / 0.6 / 0.4 d ahead / behind / deep) with
+cells of 0.1 d / ``--cells-per-half-width`` at the contact, relaxed by each ``--relaxation``: the
+sinkage stepped up by ``--step`` (a failed step cut in two on the way) until a steady state is not
+found: the deepest one, its Q_V and how far the surface leaves the window moved forward, why the
+next failed, and the wall time.
 
 ``towed``: the frictionless Mn/DOT cylinder (d = 1.524 m) towed in plane strain over ``--soil``:
 clay (von Mises, E = 40 MPa, nu = 0.35, q_y = 200 kPa) or the report's case 5 (Drucker-Prager,
@@ -78,6 +87,8 @@ solved with each (GMRES's Eisenstat-Walker forcing; 0: the fixed tolerance) in t
     python -m benchmarks steady hertz [--p0 3.6 4.5] [--cells-per-half-width 4]
         [--travel 14] [--step 0.0625] [--distance 5] [--out bench_steady.json]
     mpirun -n 2 python -m benchmarks steady ranks [--cells-per-half-width 2] [--sinkage 2.5 5]
+    python -m benchmarks steady reach [--soil case2 case8] [--cells-per-half-width 2 4 8] [--friction 0 0.8]
+        [--relaxation 0] [--step 1] [--deepest 40]
     python -m benchmarks steady towed [--soil clay] [--sinkage 2 3 4] [--cells-per-half-width 4]
     python -m benchmarks steady wheel [--soil case5] [--sinkage 4 6] [--travel 4] [--cells-per-half-width 4]
     python -m benchmarks steady rolled [--sinkage 12] [--refinement 10] [--strain pointwise] [--travel 2.5]
@@ -93,6 +104,7 @@ solved with each (GMRES's Eisenstat-Walker forcing; 0: the fixed tolerance) in t
 from __future__ import annotations
 
 import argparse
+import itertools
 from dataclasses import replace
 import logging
 import math
@@ -169,16 +181,58 @@ def main() -> int:
     prof.add_argument("--sinkage", type=float, default=3.048, help="mm")
     prof.add_argument("--forcing", type=float, nargs="+", default=[0.1],
                       help="GMRES's Eisenstat-Walker forcing (0: the options' fixed tolerance), each in turn")
+    reach = sub.add_parser("reach", help="plane strain, towed cylinder: how deep the rate-independent steps reach")
+    reach.add_argument("--soil", nargs="+", choices=sorted(REACH_SOILS), default=sorted(REACH_SOILS))
+    reach.add_argument("--cells-per-half-width", type=int, nargs="+", default=[2, 4, 8], help="cells per 0.1 d")
+    reach.add_argument("--friction", type=float, nargs="+", default=[0.0, 0.8])
+    reach.add_argument("--relaxation", type=float, nargs="+", default=[0.0], help="relaxation lengths, mm")
+    reach.add_argument("--step", type=float, default=1.0, help="sinkage step, mm")
+    reach.add_argument("--deepest", type=float, default=40.0, help="mm")
     args = ap.parse_args()
     run = {"hertz": hertz_against_transient, "ranks": distributed_against_serial, "towed": towed_surface_layer,
            "wheel": steady_against_transient, "window": side_face, "limit": relaxation_limit,
-           "convergence": mesh_convergence, "profile": profile_one_state, "rolled": steady_against_rolled}
+           "convergence": mesh_convergence, "profile": profile_one_state, "rolled": steady_against_rolled,
+           "reach": rate_independent_reach}
     return run[args.problem](args)
 
 
 #: the soils of the ``towed`` problem
 TOWED_SOILS = {"clay": VonMises(E=40e6, nu=0.35, yield_stress=200e3),
                "case5": DruckerPrager(E=40e6, nu=0.35, phi_dp=math.radians(27.5), c_dp=194.6e3)}
+
+
+def rate_independent_reach(args) -> int:
+    """The ``reach`` problem (module docstring)."""
+    from rollsim.scene import parse_scene
+    from rollsim.solver.contact import Circle
+    from rollsim.solver.scene_model import layer_materials
+    d = ROLLER.diameter
+    print("| soil | cells at the contact (mm) | dofs | mu | relaxation (mm) | deepest steady state (mm) | Q_V there "
+          "(kN/m) | surface moved forward there (mm) | the next step | wall time |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    for name, cells, mu, length in itertools.product(args.soil, args.cells_per_half_width, args.friction,
+                                                      args.relaxation):
+        scene = parse_scene({"wheel": {"diameter": f"{d} m", "width": f"{ROLLER.width} m"},
+                             "soil": {"gamma": "20 kN/m^3", "layers": [REACH_SOILS[name]]},
+                             "loading": {"protocol": "indentation", "max_sinkage": "0.1 m"}})
+        soil = layer_materials(scene)
+        window = RollingWindow(half_width=0.1 * d, ahead=0.4 * d, behind=0.6 * d, depth=0.4 * d,
+                               cells_per_half_width=cells)
+        layers = [soil.by_layer[k] for k in sorted(soil.by_layer)]
+        st = SteadyRolling(rolling_window_mesh(MPI.COMM_SELF, window), layers, wheel=Circle(diameter=d), friction=mu,
+                           unit_weight=20e3, volumetric_strain="pointwise", relaxation_length=1e-3 * length)
+        t0, reached, force, forward, stop = time.perf_counter(), 0.0, 0.0, 0.0, f"none to {args.deepest:g} mm"
+        for s in np.arange(1, round(args.deepest / args.step) + 1) * args.step:
+            try:
+                res = st.solve_free_rolling(1e-3 * s)
+            except NoSteadyState as err:
+                stop = f"fails: {str(err).split(': ', 1)[1].split(';')[0]}"
+                break
+            reached, force, forward = s, res.vertical_force / 1e3, 1e3 * st.surface_displacement()[1][0, 0]
+        dofs = st.V.dofmap.index_map.size_global * 2
+        print(f"| {name} | {1e3 * window.cell_size:.0f} | {dofs} | {mu:g} | {length:g} | {reached:g} | {force:.1f} | "
+              f"{forward:.1f} | {stop} | {time.perf_counter() - t0:.0f} s |", flush=True)
+    return 0
 
 
 def towed_surface_layer(args) -> int:
@@ -458,6 +512,10 @@ def relaxation_limit(args) -> int:
 
 def _layer(model: str, c_dp: str, phi_dp: str | None = None, **extra) -> dict:
     return {"model": model, "E": "40 MPa", "nu": 0.35, "c_dp": c_dp, **({"phi_dp": phi_dp} if phi_dp else {}), **extra}
+
+
+#: the soils of the ``reach`` problem: ``[[soil.layers]]`` tables of the report's rolling cases
+REACH_SOILS = {"case8": _layer("drucker-prager", "89.1 kPa", "45.4 deg"), "case2": _layer("von-mises", "200 kPa")}
 
 
 #: the soils of the ``convergence`` problem: (friction, layers, load in kN), those of the rolled
