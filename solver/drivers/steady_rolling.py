@@ -192,6 +192,9 @@ RELAXATION_RTOL = 0.01
 #: the limit counts as reached only where the sinkages' observed order in the length is at least
 #: this (1: first order; 0.4: the change per halving falls by at least a quarter)
 RELAXATION_MIN_ORDER = 0.4
+#: ... and where the orders through the last three lengths and through the three before them
+#: differ by at most this (a series in its asymptotic range: one small change does not certify)
+RELAXATION_ORDER_SPREAD = 0.5
 #: relaxation lengths at most (the first included)
 RELAXATION_LEVELS = 12
 #: each length over the last: halved, and where that state is not found, the milder reductions
@@ -227,9 +230,10 @@ def _relaxation_limit(steady: SteadyRolling, scene, solve, states: dict, inflow,
     sinkage stepped up to the load with the soil relaxed by :data:`RELAXATION_START` station
     spacings (:attr:`SteadyRolling.station_spacing`), then the relaxation length lowered at the
     load, each from the state of the last (halved; where that state is not found, from the last
-    state by the milder :data:`RELAXATION_REDUCTIONS`), until the extrapolation of the sinkage
-    (:func:`relaxation_extrapolation`) moves the last level's by at most :data:`RELAXATION_RTOL`
-    of it (or :data:`RELAXATION_LEVELS` lengths, or no reduction's state found).  Returns the
+    state by the milder :data:`RELAXATION_REDUCTIONS`), until the extrapolation of the sinkage is
+    certified (:func:`relaxation_certified`: it moves the last level's by at most
+    :data:`RELAXATION_RTOL` of it at an order that the levels before agree with), or
+    :data:`RELAXATION_LEVELS` lengths, or no reduction's state found.  Returns the
     last level's state and the limit: the levels, the extrapolated sinkage and whether it met the
     tolerance."""
     load = scene.loading.load
@@ -240,11 +244,10 @@ def _relaxation_limit(steady: SteadyRolling, scene, solve, states: dict, inflow,
     levels = [_level(steady, res)]
     limit = {"levels": levels, "converged": False, "reason": None}
     while True:
-        extrapolation = relaxation_extrapolation([(level["relaxation_length_m"], level["sinkage_m"])
-                                                  for level in levels])
+        extrapolation, certified = relaxation_certified([(level["relaxation_length_m"], level["sinkage_m"])
+                                                         for level in levels])
         limit.update(dict(zip(("sinkage_m", "correction_m", "order"), extrapolation or (None, None, None))))
-        if extrapolation is not None and extrapolation[2] >= RELAXATION_MIN_ORDER \
-                and abs(extrapolation[1]) <= RELAXATION_RTOL * res.sinkage:
+        if certified:
             limit["converged"] = True
             break
         if len(levels) == RELAXATION_LEVELS:
@@ -283,6 +286,23 @@ def _level(steady: SteadyRolling, res) -> dict:
             "QH_N": res.towing_force, "newton_iterations": res.newton_iterations}
 
 
+def relaxation_certified(levels: list[tuple[float, float]]) -> tuple[tuple[float, float, float] | None, bool]:
+    """The extrapolation of ``levels`` ((length, sinkage), m; :func:`relaxation_extrapolation`)
+    and whether it is the limit: its correction at most :data:`RELAXATION_RTOL` of the last
+    sinkage, its order at least :data:`RELAXATION_MIN_ORDER` and within
+    :data:`RELAXATION_ORDER_SPREAD` of the order through the three levels before the last (or the
+    last change negligible)."""
+    extrapolation = relaxation_extrapolation(levels)
+    if extrapolation is None:
+        return None, False
+    limit, correction, order = extrapolation
+    if order == math.inf:
+        return extrapolation, True
+    before = relaxation_extrapolation(levels[:-1])
+    return extrapolation, (order >= RELAXATION_MIN_ORDER and abs(correction) <= RELAXATION_RTOL * abs(levels[-1][1])
+                           and before is not None and abs(before[2] - order) <= RELAXATION_ORDER_SPREAD)
+
+
 def relaxation_extrapolation(levels: list[tuple[float, float]]) -> tuple[float, float, float] | None:
     """The limit as the relaxation length goes to 0 of the sinkages of ``levels`` ((length,
     sinkage), m, lengths falling), as (limit, its distance from the last, observed order): where
@@ -317,7 +337,8 @@ def _add_limit(summary: dict, limit: dict) -> None:
     ``relaxation_limit``, the last level's sinkage as ``relaxed_sinkage_m`` (the fields, forces
     and rut are that level's) and, where the limit was reached, the extrapolated sinkage as
     ``sinkage_m``; else ``sinkage_m`` stays the last level's, with a warning."""
-    summary.update(relaxation_limit={**limit, "rtol": RELAXATION_RTOL, "start_over_station_spacing": RELAXATION_START},
+    summary.update(relaxation_limit={**limit, "rtol": RELAXATION_RTOL, "order_spread": RELAXATION_ORDER_SPREAD,
+                                     "start_over_station_spacing": RELAXATION_START},
                    relaxed_sinkage_m=limit["levels"][-1]["sinkage_m"])
     if limit["converged"]:
         summary["sinkage_m"] = limit["sinkage_m"]
