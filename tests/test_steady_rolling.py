@@ -806,20 +806,23 @@ def test_3d_towing_force_of_the_roller_balances_the_window():
     assert res.vertical_force < 0.9 * elastic.vertical_force
 
 
+def _friction_strip(gdim: int):
+    """The wheel (in 3D the Mn/DOT roller with a fillet) and the surface rows of a strip of 41
+    stations over 1.5 m (in 3D 13 rows over 0.3 m across) for the friction's tests."""
+    xs = np.linspace(0.6, -0.9, 41)
+    if gdim == 3:
+        X = np.array([[x, y, 0.0] for y in np.linspace(0.0, 0.3, 13) for x in xs])
+        return CylinderWheel(1.524, 0.4572, 0.05), SurfaceRows.of(X, 0.0, 1e-9)
+    return Circle(1.524), SurfaceRows.of(np.column_stack([xs, np.zeros_like(xs)]), 0.0, 1e-9)
+
+
 @pytest.mark.parametrize("gdim", [2, 3])
 def test_friction_tangent_is_the_derivative_of_its_sweep(gdim):
     """The friction's tangent (sticking and sliding stations, the wheel's curvature; in 3D the
     fillet's) equals central differences of its sweep, and the nodal weights integrate the
     surface."""
     rng = np.random.default_rng(gdim)
-    xs = np.linspace(0.6, -0.9, 41)
-    if gdim == 3:
-        wheel = CylinderWheel(1.524, 0.4572, 0.05)
-        X = np.array([[x, y, 0.0] for y in np.linspace(0.0, 0.3, 13) for x in xs])
-    else:
-        wheel = Circle(1.524)
-        X = np.column_stack([xs, np.zeros_like(xs)])
-    rows = SurfaceRows.of(X, 0.0, 1e-9)
+    wheel, rows = _friction_strip(gdim)
     assert rows.weights.sum() == pytest.approx(1.5 * (0.3 if gdim == 3 else 1.0), rel=1e-12)
     friction = SurfaceFriction(rows, wheel, 0.3, 1e8, tangential_ratio=0.3)
     U = np.zeros(rows.nodes.shape + (gdim,))
@@ -844,14 +847,7 @@ def test_friction_stiffness_is_each_nodes_own_derivative(gdim):
     """The friction's nodal stiffness (the preconditioner's blocks) is, at sticking and sliding
     stations alike, the derivative of each node's force by its own displacement with the tangent
     frame held (the exact tangent without the wheel's curvature), negated; zero out of contact."""
-    xs = np.linspace(0.6, -0.9, 41)
-    if gdim == 3:
-        wheel = CylinderWheel(1.524, 0.4572, 0.05)
-        X = np.array([[x, y, 0.0] for y in np.linspace(0.0, 0.3, 13) for x in xs])
-    else:
-        wheel = Circle(1.524)
-        X = np.column_stack([xs, np.zeros_like(xs)])
-    rows = SurfaceRows.of(X, 0.0, 1e-9)
+    wheel, rows = _friction_strip(gdim)
     friction = SurfaceFriction(rows, wheel, 0.3, 1e8, tangential_ratio=0.3)
     U = np.zeros(rows.nodes.shape + (gdim,))
     U[..., -1] = -0.01 * np.exp(-(rows.x / 0.25) ** 2)
