@@ -192,8 +192,7 @@ class SurfaceFriction:
             return np.zeros(st["P"].shape + (self.gdim,))
         T, q, n = st["T"], st["direction"], st["n"]
         m, g = T.shape[-2], self.gdim
-        turn = np.zeros((g, g))
-        turn[0, -1], turn[-1, 0] = -1.0, 1.0                # _turn as a matrix
+        turn = self._turn(np.eye(g)).T                      # _turn as a matrix
         # the slip's derivative by the node's own displacement: its difference less the wheel's turn
         own = np.eye(g) - (st["spin"] * self._dx / self.radius)[:, None, None] * turn
         own[0] = 0.0                                        # the first station has no upstream difference

@@ -1115,8 +1115,9 @@ def test_relaxation_limit_extrapolates_the_halved_lengths():
     """The route to a rate-independent steady state through relaxed ones: the load reached with
     the soil relaxed by RELAXATION_START station spacings, then the length halved at the load
     until the extrapolation through the last three levels moves the last by at most
-    RELAXATION_RTOL at an order the three before agree with.  On a sinkage first order in the length, s(L) = s0 - a L, the extrapolation
-    is exact and stops at the first level whose correction is within the tolerance; it is exact
+    RELAXATION_RTOL at an order the three before agree with.  On a sinkage first order in the
+    length, s(L) = s0 - a L, the extrapolation is exact and stops at the first level whose
+    correction is within the tolerance; it is exact
     at second order on uneven lengths too; a series whose changes grow or change sign is not
     extrapolated, one that falls slowly gives its order; where a halved length's state is not found, a milder reduction
     from the last state, and where none is found the series ends with the levels so far."""

@@ -295,7 +295,7 @@ def relaxation_certified(levels: list[tuple[float, float]]) -> tuple[tuple[float
     extrapolation = relaxation_extrapolation(levels)
     if extrapolation is None:
         return None, False
-    limit, correction, order = extrapolation
+    _, correction, order = extrapolation
     if order == math.inf:
         return extrapolation, True
     before = relaxation_extrapolation(levels[:-1])
