@@ -26,6 +26,12 @@ sinkage stepped up by ``--step`` (a failed step cut in two on the way) until a s
 found: the deepest one, its Q_V and how far the surface leaves the window moved forward, why the
 next failed, and the wall time.
 
+``stabilised``: the same towed cylinder and soils, the soil relaxed by ``--per-spacing`` times
+the shortest spacing of the streamlines' stations (a relaxation that shrinks with the cells), at
+the service load (133.5 kN over the roller's width): for each ``--cells-per-half-width`` the
+sinkage at the load (or where the steps stop), its change from the level before and the observed
+order of the last three.
+
 ``towed``: the frictionless Mn/DOT cylinder (d = 1.524 m) towed in plane strain over ``--soil``:
 clay (von Mises, E = 40 MPa, nu = 0.35, q_y = 200 kPa) or the report's case 5 (Drucker-Prager,
 E = 40 MPa, nu = 0.35, phi_dp = 27.5 deg, c_dp = 194.6 kPa), gravity; pointwise and B-bar, the sinkage stepped
@@ -89,6 +95,7 @@ solved with each (GMRES's Eisenstat-Walker forcing; 0: the fixed tolerance) in t
     mpirun -n 2 python -m benchmarks steady ranks [--cells-per-half-width 2] [--sinkage 2.5 5]
     python -m benchmarks steady reach [--soil case2 case8] [--cells-per-half-width 2 4 8] [--friction 0 0.8]
         [--relaxation 0] [--step 1] [--deepest 40]
+    python -m benchmarks steady stabilised [--soil case2 case8] [--per-spacing 0.25 1] [--cells-per-half-width 4 8 16]
     python -m benchmarks steady towed [--soil clay] [--sinkage 2 3 4] [--cells-per-half-width 4]
     python -m benchmarks steady wheel [--soil case5] [--sinkage 4 6] [--travel 4] [--cells-per-half-width 4]
     python -m benchmarks steady rolled [--sinkage 12] [--refinement 10] [--strain pointwise] [--travel 2.5]
@@ -188,11 +195,16 @@ def main() -> int:
     reach.add_argument("--relaxation", type=float, nargs="+", default=[0.0], help="relaxation lengths, mm")
     reach.add_argument("--step", type=float, default=1.0, help="sinkage step, mm")
     reach.add_argument("--deepest", type=float, default=40.0, help="mm")
+    stab = sub.add_parser("stabilised", help="plane strain, towed cylinder at the load: relaxation ~ cells")
+    stab.add_argument("--soil", nargs="+", choices=sorted(REACH_SOILS), default=sorted(REACH_SOILS))
+    stab.add_argument("--per-spacing", type=float, nargs="+", default=[0.25, 1.0],
+                      help="relaxation lengths in station spacings")
+    stab.add_argument("--cells-per-half-width", type=int, nargs="+", default=[4, 8, 16], help="cells per 0.1 d")
     args = ap.parse_args()
     run = {"hertz": hertz_against_transient, "ranks": distributed_against_serial, "towed": towed_surface_layer,
            "wheel": steady_against_transient, "window": side_face, "limit": relaxation_limit,
            "convergence": mesh_convergence, "profile": profile_one_state, "rolled": steady_against_rolled,
-           "reach": rate_independent_reach}
+           "reach": rate_independent_reach, "stabilised": stabilised_at_load}
     return run[args.problem](args)
 
 
@@ -203,24 +215,13 @@ TOWED_SOILS = {"clay": VonMises(E=40e6, nu=0.35, yield_stress=200e3),
 
 def rate_independent_reach(args) -> int:
     """The ``reach`` problem (module docstring)."""
-    from rollsim.scene import parse_scene
-    from rollsim.solver.contact import Circle
-    from rollsim.solver.scene_model import layer_materials
-    d = ROLLER.diameter
     print("| soil | cells at the contact (mm) | dofs | mu | relaxation (mm) | deepest steady state (mm) | Q_V there "
           "(kN/m) | surface moved forward there (mm) | the next step | wall time |")
     print("|---|---|---|---|---|---|---|---|---|---|")
     for name, cells, mu, length in itertools.product(args.soil, args.cells_per_half_width, args.friction,
                                                       args.relaxation):
-        scene = parse_scene({"wheel": {"diameter": f"{d} m", "width": f"{ROLLER.width} m"},
-                             "soil": {"gamma": "20 kN/m^3", "layers": [REACH_SOILS[name]]},
-                             "loading": {"protocol": "indentation", "max_sinkage": "0.1 m"}})
-        soil = layer_materials(scene)
-        window = RollingWindow(half_width=0.1 * d, ahead=0.4 * d, behind=0.6 * d, depth=0.4 * d,
-                               cells_per_half_width=cells)
-        layers = [soil.by_layer[k] for k in sorted(soil.by_layer)]
-        st = SteadyRolling(rolling_window_mesh(MPI.COMM_SELF, window), layers, wheel=Circle(diameter=d), friction=mu,
-                           unit_weight=20e3, volumetric_strain="pointwise", relaxation_length=1e-3 * length)
+        st, window = _reach_problem(name, cells, mu)
+        st.relaxation_length = 1e-3 * length
         t0, reached, force, forward, stop = time.perf_counter(), 0.0, 0.0, 0.0, f"none to {args.deepest:g} mm"
         for s in np.arange(1, round(args.deepest / args.step) + 1) * args.step:
             try:
@@ -233,6 +234,58 @@ def rate_independent_reach(args) -> int:
         print(f"| {name} | {1e3 * window.cell_size:.0f} | {dofs} | {mu:g} | {length:g} | {reached:g} | {force:.1f} | "
               f"{forward:.1f} | {stop} | {time.perf_counter() - t0:.0f} s |", flush=True)
     return 0
+
+
+def stabilised_at_load(args) -> int:
+    """The ``stabilised`` problem (module docstring)."""
+    load = 133.5e3 / ROLLER.width                    # N/m
+    print("| soil | relaxation (station spacings) | cells at the contact (mm) | dofs | relaxation (mm) | sinkage at "
+          "the load (mm) | change | order | Q_H (kN/m) | wall time |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    for name, ratio in itertools.product(args.soil, args.per_spacing):
+        found, cells_mm = [], []
+        for cells in args.cells_per_half_width:
+            st, window = _reach_problem(name, cells, 0.8)
+            cells_mm.append(window.cell_size)
+            st.relaxation_length = ratio * st.station_spacing
+            t0, states, res, s = time.perf_counter(), {}, None, 0.0
+            try:
+                while res is None or res.vertical_force < load:
+                    s += 1e-3
+                    res = st.solve_free_rolling(s)
+                    states[s] = (st.u.x.array.copy(), st.spin, res.vertical_force)
+                res = st.solve_load(load, free_rolling=True, states=states, rtol=1e-5)
+                found.append(res.sinkage)
+                change = f"{100 * (found[-1] / found[-2] - 1):+.1f} %" if len(found) > 1 else "-"
+                last = (cells_mm[-3:][::-1], found[-3:][::-1])                  # fine to coarse
+                fit = observed_order(*last) if len(found) >= 3 and np.isfinite(last[1]).all() else None
+                cols = (f"{1e3 * res.sinkage:.3f}", change,
+                        "-" if fit is None else f"{fit[0]:.2f} (Richardson {1e3 * fit[1]:.2f} mm)",
+                        f"{res.towing_force / 1e3:.2f}")
+            except NoSteadyState as err:
+                found.append(math.nan)
+                cols = (f"none beyond {1e3 * (s - 1e-3):g} ({str(err).split(': ', 1)[1].split(';')[0]})", "-", "-", "-")
+            dofs = st.V.dofmap.index_map.size_global * 2
+            print(f"| {name} | {ratio:g} | {1e3 * window.cell_size:.0f} | {dofs} | {1e3 * st.relaxation_length:.2f} | "
+                  + " | ".join(cols) + f" | {time.perf_counter() - t0:.0f} s |", flush=True)
+    return 0
+
+
+def _reach_problem(name: str, cells: int, mu: float):
+    """The towed cylinder of ``reach`` and ``stabilised`` on ``REACH_SOILS[name]``, and its window."""
+    from rollsim.scene import parse_scene
+    from rollsim.solver.contact import Circle
+    from rollsim.solver.scene_model import layer_materials
+    d = ROLLER.diameter
+    scene = parse_scene({"wheel": {"diameter": f"{d} m", "width": f"{ROLLER.width} m"},
+                         "soil": {"gamma": "20 kN/m^3", "layers": [REACH_SOILS[name]]},
+                         "loading": {"protocol": "indentation", "max_sinkage": "0.1 m"}})
+    soil = layer_materials(scene)
+    window = RollingWindow(half_width=0.1 * d, ahead=0.4 * d, behind=0.6 * d, depth=0.4 * d, cells_per_half_width=cells)
+    layers = [soil.by_layer[k] for k in sorted(soil.by_layer)]
+    st = SteadyRolling(rolling_window_mesh(MPI.COMM_SELF, window), layers, wheel=Circle(diameter=d), friction=mu,
+                       unit_weight=20e3, volumetric_strain="pointwise")
+    return st, window
 
 
 def towed_surface_layer(args) -> int:
