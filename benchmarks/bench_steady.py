@@ -74,13 +74,16 @@ iterations, then the extrapolated sinkage, its correction and the wall time.
 ``convergence``: the Mn/DOT roller towed at ``--load`` kN through ``rollsim run``'s steady driver
 over each ``--soil`` (``case5``: the report's case 5, c-phi soil, mu = 0.8; ``case17``: layered
 case 17, three layers of clay with c_dp = 300 kPa, mu = 0.8; ``clay``: von Mises c_dp = 300 kPa,
-frictionless, at 100 kN; ``case2``: the clay of case 2, c_dp = 200 kPa, mu = 0.8; each at the
-load it was rolled at unless ``--load`` is given), each ``--strain``,
+frictionless, at 100 kN; ``case2``: the clay of case 2, c_dp = 200 kPa, mu = 0.8; ``case8``: the
+report's rolling case 8, phi_dp = 45.4 deg, c_dp = 89.1 kPa, mu = 0.8; each at the load it was
+rolled at unless ``--load`` is given), each ``--strain``,
 on fine cells of d / each of ``--levels`` at the contact: the steady sinkage, Q_H, rut, dofs,
 Newton iterations and wall time per level; over the last three levels the observed order and
 the Richardson value, and the last refinement's change.  B-bar reaches its rate-independent
 state through the relaxation's limit (the driver's route; its extrapolated sinkage is the
-level's).  ``--out``: the rows as JSON, one file per soil and strain, appended as they finish.
+level's).  With ``--relaxation-per-spacing`` the soil is relaxed by that many of each level's
+shortest station spacings (``[model] relaxation_length``: a relaxation that shrinks with the
+cells).  ``--out``: the rows as JSON, one file per soil and strain, appended as they finish.
 
 ``profile``: one steady state of the same roller towed at ``--sinkage`` mm on cells of d /
 ``--refinement`` (``--strain``), the spin found for zero axle torque from the undisturbed soil:
@@ -104,7 +107,8 @@ solved with each (GMRES's Eisenstat-Walker forcing; 0: the fixed tolerance) in t
     mpirun -n 2 python -m benchmarks steady profile [--refinement 20] [--strain pointwise] [--sinkage 3.048]
         [--forcing 0 0.1]
     mpirun -n 2 python -m benchmarks steady convergence [--soil case5 case17 clay case2]
-        [--strain pointwise cell-average] [--levels 10 20 30 40] [--load KN] [--out DIR]
+        [--strain pointwise cell-average] [--levels 10 20 30 40] [--load KN] [--relaxation-per-spacing R]
+        [--out DIR]
     mpirun -n 2 python -m benchmarks steady limit [--refinement 20] [--strain cell-average]
         [--load 133.5] [--friction 0.8]
 """
@@ -181,6 +185,8 @@ def main() -> int:
     conv.add_argument("--levels", type=float, nargs="+", default=[10.0, 20.0, 30.0, 40.0],
                       help="elements per d at the contact")
     conv.add_argument("--load", type=float, help="kN (default: the soil's, as rolled)")
+    conv.add_argument("--relaxation-per-spacing", type=float,
+                      help="relax the soil by this many station spacings of each level (default: not)")
     conv.add_argument("--out", help="directory of the JSON rows")
     prof = sub.add_parser("profile", help="3D roller, one steady state: where the time goes")
     prof.add_argument("--refinement", type=float, default=20.0, help="elements per d at the contact")
@@ -579,7 +585,12 @@ CONVERGENCE_SOILS = {
                      _layer("von-mises", "300 kPa", thickness="0.6096 m"), _layer("von-mises", "300 kPa")], 133.5),
     "clay": (0.0, [_layer("von-mises", "300 kPa")], 100.0),
     "case2": (0.8, [_layer("von-mises", "200 kPa")], 133.5),
+    "case8": (0.8, [_layer("drucker-prager", "89.1 kPa", "45.4 deg")], 133.5),
 }
+
+#: the shortest spacing of a streamline's stations in cells of length h, over h: two Gauss
+#: points of the 3-point rule either side of a face between equal cells
+GAUSS_FACE_SPACING = 1.0 - math.sqrt(3.0 / 5.0)
 
 
 def mesh_convergence(args) -> int:
@@ -592,23 +603,31 @@ def mesh_convergence(args) -> int:
         load = args.load or load
         for strain in args.strain:
             rows = []
+            ratio = args.relaxation_per_spacing
             if comm.rank == 0:
-                print(f"\n{soil}, {strain}, towed at {load:g} kN\n| cells at the contact | dofs | status | "
-                      "sinkage (mm) | Q_H (kN) | rut (mm) | Newton its | wall (s) |\n|---|---|---|---|---|---|---|---|",
-                      flush=True)
+                print(f"\n{soil}, {strain}, towed at {load:g} kN" + (f", relaxed by {ratio:g} station spacing(s)"
+                                                                     if ratio else "") +
+                      "\n| cells at the contact | dofs | status | sinkage (mm) | Q_H (kN) | rut (mm) | surface moved "
+                      "forward (mm) | Newton its | wall (s) |\n|---|---|---|---|---|---|---|---|---|", flush=True)
             for level in args.levels:
+                model = {"rolling": "steady", "refinement": level, "volumetric_strain": strain}
+                if ratio:
+                    model["relaxation_length"] = ratio * GAUSS_FACE_SPACING * ROLLER.diameter / level
                 scene = parse_scene({"wheel": {"diameter": "1.524 m", "width": "0.4572 m", "friction": friction},
                                      "soil": {"gamma": "20 kN/m^3", "layers": layers},
                                      "loading": {"protocol": "rolling-constant-load", "load": f"{load} kN"},
-                                     "model": {"rolling": "steady", "refinement": level, "volumetric_strain": strain}})
+                                     "model": model})
                 r, _ = _steady_run(scene, comm)
                 rows.append({"level": level, "dofs": r["dofs"], "status": r["status"], "reason": r.get("reason"),
                              "sinkage_m": r["sinkage_m"], "QH_N": r["QH_N"], "rut_m": r.get("rut_depth_m"),
                              "newton_iterations": r["newton_iterations"], "wall_time_s": r["wall_time_s"],
-                             "relaxation_limit": r.get("relaxation_limit")})
+                             "relaxation_limit": r.get("relaxation_limit"),
+                             "relaxation_length_m": model.get("relaxation_length", 0.0),
+                             "surface_forward_m": r.get("surface_forward_m")})
                 if comm.rank == 0:
                     print(f"| d/{level:g} | {r['dofs']} | {r['status']} | {1e3 * r['sinkage_m']:.2f} | "
                           f"{r['QH_N'] / 1e3:.2f} | {1e3 * (r.get('rut_depth_m') or float('nan')):.2f} | "
+                          f"{1e3 * (r.get('surface_forward_m') or float('nan')):.1f} | "
                           f"{r['newton_iterations']} | {r['wall_time_s']:.0f} |", flush=True)
                     if r["status"] != "ok":
                         print(f"  ({r['status']}: {r.get('reason')})", flush=True)
