@@ -257,12 +257,13 @@ def stabilised_at_load(args) -> int:
             t0, states, res, s = time.perf_counter(), {}, None, 0.0
             try:
                 while res is None or res.vertical_force < load:
-                    s += 1e-3
-                    res = st.solve_free_rolling(s)
+                    res = st.solve_free_rolling(s + 1e-3)
+                    s += 1e-3                               # the deepest state found
                     states[s] = (st.u.x.array.copy(), st.spin, res.vertical_force)
                 res = st.solve_load(load, free_rolling=True, states=states, rtol=1e-5)
                 found.append(res.sinkage)
-                change = f"{100 * (found[-1] / found[-2] - 1):+.1f} %" if len(found) > 1 else "-"
+                change = f"{100 * (found[-1] / found[-2] - 1):+.1f} %" if len(found) > 1 and math.isfinite(found[-2]) \
+                    else "-"
                 last = (cells_mm[-3:][::-1], found[-3:][::-1])                  # fine to coarse
                 fit = observed_order(*last) if len(found) >= 3 and np.isfinite(last[1]).all() else None
                 cols = (f"{1e3 * res.sinkage:.3f}", change,
@@ -270,7 +271,7 @@ def stabilised_at_load(args) -> int:
                         f"{res.towing_force / 1e3:.2f}")
             except NoSteadyState as err:
                 found.append(math.nan)
-                cols = (f"none beyond {1e3 * (s - 1e-3):g} ({str(err).split(': ', 1)[1].split(';')[0]})", "-", "-", "-")
+                cols = (f"none beyond {1e3 * s:g} ({str(err).split(': ', 1)[1].split(';')[0]})", "-", "-", "-")
             dofs = st.V.dofmap.index_map.size_global * 2
             print(f"| {name} | {ratio:g} | {1e3 * window.cell_size:.0f} | {dofs} | {1e3 * st.relaxation_length:.2f} | "
                   + " | ".join(cols) + f" | {time.perf_counter() - t0:.0f} s |", flush=True)
