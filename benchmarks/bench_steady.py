@@ -1,4 +1,4 @@
-"""Steady rolling (rollsim.solver.steady), ten problems:
+"""Steady rolling (rollsim.solver.steady), eleven problems:
 
 ``hertz``: against transient rolling on the same elements, plane strain, a Hertz line pressure
 (half-width a = 1 m) on von Mises soil (E = 1000 Pa, nu = 0.3, k = 1 Pa).  The steady solve in its
@@ -31,6 +31,14 @@ the shortest spacing of the streamlines' stations (a relaxation that shrinks wit
 the service load (133.5 kN over the roller's width): for each ``--cells-per-half-width`` the
 sinkage at the load (or where the steps stop), its change from the level before and the observed
 order of the last three.
+
+``shove``: the frictionless Mn/DOT cylinder held at ``--sinkage`` mm in plane strain over
+``--soil`` (as ``reach``), cells of 0.1 d / ``--cells-per-half-width``: the soil relaxed by
+``--relaxation`` mm, then the length halved ``--halvings`` times, then not relaxed, each state
+from the last; Newton-Krylov and, where it fails, the elastic fixed point (at most
+``--fixed-point`` iterations): per length Q_V per metre, how far the surface leaves the window
+moved forward, the largest accumulated plastic strain, the Newton and fixed-point iterations and
+the wall time.  ``reach`` takes ``--fixed-point`` too.
 
 ``towed``: the frictionless Mn/DOT cylinder (d = 1.524 m) towed in plane strain over ``--soil``:
 clay (von Mises, E = 40 MPa, nu = 0.35, q_y = 200 kPa) or the report's case 5 (Drucker-Prager,
@@ -97,7 +105,9 @@ solved with each (GMRES's Eisenstat-Walker forcing; 0: the fixed tolerance) in t
         [--travel 14] [--step 0.0625] [--distance 5] [--out bench_steady.json]
     mpirun -n 2 python -m benchmarks steady ranks [--cells-per-half-width 2] [--sinkage 2.5 5]
     python -m benchmarks steady reach [--soil case2 case8] [--cells-per-half-width 2 4 8] [--friction 0 0.8]
-        [--relaxation 0] [--step 1] [--deepest 40]
+        [--relaxation 0] [--step 1] [--deepest 40] [--fixed-point 0]
+    python -m benchmarks steady shove [--soil case8] [--sinkage 10] [--cells-per-half-width 8]
+        [--relaxation 5] [--halvings 6] [--fixed-point 20000]
     python -m benchmarks steady stabilised [--soil case2 case8] [--per-spacing 0.25 1] [--cells-per-half-width 4 8 16]
     python -m benchmarks steady towed [--soil clay] [--sinkage 2 3 4] [--cells-per-half-width 4]
     python -m benchmarks steady wheel [--soil case5] [--sinkage 4 6] [--travel 4] [--cells-per-half-width 4]
@@ -201,6 +211,14 @@ def main() -> int:
     reach.add_argument("--relaxation", type=float, nargs="+", default=[0.0], help="relaxation lengths, mm")
     reach.add_argument("--step", type=float, default=1.0, help="sinkage step, mm")
     reach.add_argument("--deepest", type=float, default=40.0, help="mm")
+    reach.add_argument("--fixed-point", type=int, default=0, help="fixed-point iterations where Newton fails")
+    shove = sub.add_parser("shove", help="plane strain, held cylinder: the relaxation taken away")
+    shove.add_argument("--soil", choices=sorted(REACH_SOILS), default="case8")
+    shove.add_argument("--sinkage", type=float, default=10.0, help="mm")
+    shove.add_argument("--cells-per-half-width", type=int, default=8, help="cells per 0.1 d")
+    shove.add_argument("--relaxation", type=float, default=5.0, help="the first relaxation length, mm")
+    shove.add_argument("--halvings", type=int, default=6, help="halvings of the relaxation length before none")
+    shove.add_argument("--fixed-point", type=int, default=20000, help="fixed-point iterations where Newton fails")
     stab = sub.add_parser("stabilised", help="plane strain, towed cylinder at the load: relaxation ~ cells")
     stab.add_argument("--soil", nargs="+", choices=sorted(REACH_SOILS), default=sorted(REACH_SOILS))
     stab.add_argument("--per-spacing", type=float, nargs="+", default=[0.25, 1.0],
@@ -210,7 +228,7 @@ def main() -> int:
     run = {"hertz": hertz_against_transient, "ranks": distributed_against_serial, "towed": towed_surface_layer,
            "wheel": steady_against_transient, "window": side_face, "limit": relaxation_limit,
            "convergence": mesh_convergence, "profile": profile_one_state, "rolled": steady_against_rolled,
-           "reach": rate_independent_reach, "stabilised": stabilised_at_load}
+           "reach": rate_independent_reach, "stabilised": stabilised_at_load, "shove": relaxation_removed}
     return run[args.problem](args)
 
 
@@ -228,17 +246,47 @@ def rate_independent_reach(args) -> int:
                                                       args.relaxation):
         st, window = _reach_problem(name, cells, mu)
         st.relaxation_length = 1e-3 * length
+        st.control = replace(st.control, fixed_point_iterations=args.fixed_point)
         t0, reached, force, forward, stop = time.perf_counter(), 0.0, 0.0, 0.0, f"none to {args.deepest:g} mm"
         for s in np.arange(1, round(args.deepest / args.step) + 1) * args.step:
             try:
                 res = st.solve_free_rolling(1e-3 * s)
             except NoSteadyState as err:
-                stop = f"fails: {str(err).split(': ', 1)[1].split(';')[0]}"
+                stop = f"fails: {str(err).split(': ', 1)[1].split('; the load may')[0]}"
                 break
             reached, force, forward = s, res.vertical_force / 1e3, 1e3 * st.surface_displacement()[1][0, 0]
         dofs = st.V.dofmap.index_map.size_global * 2
         print(f"| {name} | {1e3 * window.cell_size:.0f} | {dofs} | {mu:g} | {length:g} | {reached:g} | {force:.1f} | "
               f"{forward:.1f} | {stop} | {time.perf_counter() - t0:.0f} s |", flush=True)
+    return 0
+
+
+def relaxation_removed(args) -> int:
+    """The ``shove`` problem (module docstring)."""
+    st, window = _reach_problem(args.soil, args.cells_per_half_width, 0.0)
+    st.control = replace(st.control, fixed_point_iterations=args.fixed_point)
+    sinkage = 1e-3 * args.sinkage
+    lengths = [args.relaxation * 0.5 ** k for k in range(args.halvings + 1)] + [0.0]
+    print(f"{args.soil}, held at {args.sinkage:g} mm, frictionless, plane strain, cells of "
+          f"{1e3 * window.cell_size:.0f} mm at the contact\n"
+          "| relaxation (mm) | Q_V (kN/m) | surface moved forward (mm) | max. accumulated plastic strain | Newton its | "
+          "fixed-point its | wall time |\n|---|---|---|---|---|---|---|")
+    for k, length in enumerate(lengths):
+        st.relaxation_length = 1e-3 * length
+        t0 = time.perf_counter()
+        try:
+            if k == 0:
+                for s in np.append(np.arange(1e-3, sinkage, 1e-3), sinkage):
+                    res = st.solve_sinkage(float(s))
+            else:
+                res = st.solve_sinkage(sinkage, max_cuts=0)
+        except NoSteadyState as err:
+            print(f"| {length:.3g} | none: {str(err).split(': ', 1)[1].split('; the load may')[0]} | | | | | "
+                  f"{time.perf_counter() - t0:.0f} s |", flush=True)
+            break
+        print(f"| {length:.3g} | {res.vertical_force / 1e3:.1f} | {1e3 * st.surface_displacement()[1][0, 0]:.1f} | "
+              f"{res.max_accumulated_plastic_strain:.2f} | {res.newton_iterations} | {res.fixed_point_iterations} | "
+              f"{time.perf_counter() - t0:.0f} s |", flush=True)
     return 0
 
 

@@ -80,6 +80,11 @@ DEFAULT_STEADY_OPTIONS = {
     "pc_factor_mat_solver_type": "mumps",
 }
 
+#: the elastic fixed point's matrix is made again after this many iterations (the contact changes)
+FIXED_POINT_REFACTOR = 50
+#: the elastic fixed point stops when its residual has not fallen by a tenth in this many iterations
+FIXED_POINT_PATIENCE = 3000
+
 #: how many times a step on a towed wheel's spin whose solve fails is halved before the sinkage
 #: counts as having no free-rolling steady state (each failure costs a whole Newton solve)
 SPIN_CUTS = 3
@@ -298,13 +303,16 @@ class NewtonKrylovControl:
     GMRES needed more than ``refactor_iterations`` iterations (0: at every step).  GMRES stops
     at the relative tolerance of the options (``ksp_rtol``) or, with ``forcing`` > 0, at the
     Eisenstat-Walker forcing term (choice 2: 0.9 times the square of the residual's last
-    reduction, kept between ``ksp_rtol`` and ``forcing``; the first step ``forcing``)."""
+    reduction, kept between ``ksp_rtol`` and ``forcing``; the first step ``forcing``).  Where
+    Newton fails, ``fixed_point_iterations`` > 0 continues from its last iterate by the elastic
+    fixed point (:meth:`SteadyRolling._fixed_point`) for at most that many iterations."""
 
     rtol: float = 1e-8
     max_iterations: int = 30
     min_step: float = 1.0 / 64
     refactor_iterations: int = 30
     forcing: float = 0.1
+    fixed_point_iterations: int = 0
 
     def __post_init__(self):
         if not 0 < self.rtol < 1:
@@ -317,6 +325,8 @@ class NewtonKrylovControl:
             raise ValueError(f"refactor_iterations must be an integer >= 0, got {self.refactor_iterations!r}")
         if not 0 <= self.forcing < 1:
             raise ValueError(f"forcing must lie in [0, 1), got {self.forcing!r}")
+        if not (isinstance(self.fixed_point_iterations, int) and self.fixed_point_iterations >= 0):
+            raise ValueError(f"fixed_point_iterations must be an integer >= 0, got {self.fixed_point_iterations!r}")
 
 
 @dataclass(frozen=True)
@@ -357,6 +367,7 @@ class SteadyRollingResult:
     towing_force: float | None = None     # N/m, Q_H: the horizontal force on the axle that keeps the wheel rolling
     spin: float | None = None             # the wheel's xi = omega R / V (-)
     axle_torque: float | None = None      # N m/m, the contact's moment on the wheel about the axle (counter-clockwise)
+    fixed_point_iterations: int = 0       # after Newton failed (NewtonKrylovControl.fixed_point_iterations)
 
 
 @dataclass(frozen=True)
@@ -645,7 +656,8 @@ class SteadyRolling:
         self._Jv = fem.form(ufl.inner(self._dsigma, eps_v) * dx - ufl.inner(self._dtraction, v) * ds_rear)
         self._load = fem.form(load)
         Dm = self._elastic_ufl
-        K = fpetsc.assemble_matrix(fem.form(ufl.inner(ufl.dot(Dm, self._eps_w), eps_v) * dx), bcs=self.bcs)
+        self._elastic_form = fem.form(ufl.inner(ufl.dot(Dm, self._eps_w), eps_v) * dx)
+        K = fpetsc.assemble_matrix(self._elastic_form, bcs=self.bcs)
         K.assemble()
         self._b = compat.create_vector(self._F)
         self._full = self._b.duplicate()
@@ -1309,13 +1321,14 @@ class SteadyRolling:
         b = self.residual(inflow)
         norm = b.norm()
         history = [norm / scale]
-        it = 0
+        it, failure = 0, None
         while not history[-1] <= ctl.rtol:
             if not math.isfinite(norm):
                 self._fail(load_text, "the residual is not finite")
             if it == ctl.max_iterations:
-                self._fail(load_text, f"Newton-Krylov did not converge in {it} iterations (residual "
-                                      f"{history[-1]:.2e} of the load's, wanted {ctl.rtol:.0e})")
+                failure = (f"Newton-Krylov did not converge in {it} iterations (residual {history[-1]:.2e} of the "
+                           f"load's, wanted {ctl.rtol:.0e})")
+                break
             if self.wheel is not None or self._tangent_form is not None:
                 # the factorization is kept while GMRES converges quickly on it (the action is exact)
                 self._update_preconditioner(it == 0 or self._ksp.getIterationNumber() > self.control.refactor_iterations)
@@ -1331,8 +1344,9 @@ class SteadyRolling:
                 b = self.residual(inflow)
                 trial, alpha = self._line_search(inflow, b, norm, scale, self._krylov_rtol, u0)
             if trial is None:
-                self._fail(load_text, f"no Newton step lowers the residual ({norm / scale:.2e} of the "
-                                      f"load's after {it} iterations)")
+                self.u.x.array[:] = u0
+                failure = f"no Newton step lowers the residual ({norm / scale:.2e} of the load's after {it} iterations)"
+                break
             b, norm = trial
             if self.wheel is not None:
                 scale = self._load_norm()
@@ -1340,14 +1354,84 @@ class SteadyRolling:
             history.append(norm / scale)
             log.debug("steady rolling %s: Newton %d, residual %.3e, step %.3g, GMRES %d", load_text,
                       it, history[-1], alpha, self._ksp.getIterationNumber())
+        fixed_point = 0
+        if failure is not None:
+            if not ctl.fixed_point_iterations:
+                self._fail(load_text, failure)
+            fixed_point = self._fixed_point(inflow, load_text, failure, history)
         S, EP, ACC = self._fields
         outflow = StreamlineState(S[:, -1].copy(), EP[:, -1].copy(), ACC[:, -1].copy())
-        return SteadyRollingResult(peak_pressure=None, newton_iterations=it,
+        return SteadyRollingResult(peak_pressure=None, newton_iterations=it, fixed_point_iterations=fixed_point,
                                    krylov_iterations=self._counts["krylov"], sweeps=self._counts["sweeps"],
                                    wall_time=time.perf_counter() - t0, outflow=outflow,
                                    max_accumulated_plastic_strain=self.comm.allreduce(float(ACC.max(initial=0.0)),
                                                                                       MPI.MAX),
                                    residual_norms=history)
+
+    def _fixed_point(self, inflow: StreamlineState, load_text: str, failure: str, history: list[float]) -> int:
+        """Where Newton failed (``failure``): the elastic fixed point (the initial-stiffness method)
+        ``u <- u - P M^-1 P^T R(u)`` from the current displacement, ``M`` the elastic stiffness plus
+        the contact's and the friction's (:meth:`_fixed_point_matrix`, made again every
+        :data:`FIXED_POINT_REFACTOR` iterations as the contact changes).  It needs no derivative of
+        the sweep, and converges linearly where it converges.  Appends the residuals to
+        ``history``; returns the iterations; raises :class:`NoSteadyState` when the residual has not
+        fallen by a tenth in :data:`FIXED_POINT_PATIENCE` iterations, or after
+        ``control.fixed_point_iterations``."""
+        ctl = self.control
+        ksp = PETSc.KSP().create(self.comm)
+        ksp.setType("preonly")
+        ksp.getPC().setType("lu")
+        ksp.getPC().setFactorSolverType("mumps")
+        x, rhs = self._b.duplicate(), self._b.duplicate()
+        scale = self._load_norm()
+        b = self.residual(inflow)
+        best, since, M = b.norm() / scale, 0, None
+        try:
+            for it in range(1, ctl.fixed_point_iterations + 1):
+                if (it - 1) % FIXED_POINT_REFACTOR == 0:
+                    if M is not None:
+                        M.destroy()
+                    M = self._fixed_point_matrix()
+                    ksp.setOperators(M)
+                b.copy(rhs)
+                rhs.scale(-1.0)
+                ksp.solve(rhs, x)
+                self._tie.mult(x, compat.petsc_vector(self._du))
+                self._du.x.scatter_forward()
+                self.u.x.array[:] += self._du.x.array
+                if self.wheel is not None:
+                    scale = self._load_norm()
+                b = self.residual(inflow)
+                history.append(b.norm() / scale)
+                if history[-1] <= ctl.rtol:
+                    return it
+                best, since = (history[-1], 0) if history[-1] < 0.9 * best else (best, since + 1)
+                if since == FIXED_POINT_PATIENCE or not math.isfinite(history[-1]):
+                    break
+            self._fail(load_text, f"{failure}; the fixed point then stalled at {history[-1]:.2e} of the load's "
+                                  f"after {it} iterations")
+        finally:
+            for obj in (ksp, x, rhs, M):
+                if obj is not None:
+                    obj.destroy()
+
+    def _fixed_point_matrix(self) -> PETSc.Mat:
+        """The fixed point's matrix, reduced by the rear tie: the elastic stiffness plus the
+        contact's stiffness at the current displacement and the friction's nodal blocks."""
+        M = fpetsc.assemble_matrix(self._elastic_form, bcs=self.bcs)
+        M.assemble()
+        if self._contact_stiffness is not None:
+            C = fpetsc.assemble_matrix(self._contact_stiffness)
+            C.assemble()
+            C.zeroRowsColumns(self._fixed_global, diag=0.0)
+            M.axpy(1.0, C, structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
+            C.destroy()
+        if self._friction is not None:
+            self._add_friction_stiffness(M)
+        reduced, product = self._reduced_matrix(M)
+        for obj in (M, product):
+            obj.destroy()
+        return reduced
 
     def _line_search(self, inflow, b: PETSc.Vec, norm: float, scale: float, eta: float, u0: np.ndarray):
         """The Newton step from ``u0`` (residual ``b``, its norm ``norm``) with GMRES to the

@@ -21,7 +21,8 @@ from rollsim.solver.contact import Circle, RigidWheelContact
 from rollsim.solver.problem import PlasticityProblem, mandel_strain
 from rollsim.solver.return_map import elastic_stiffness, invariants
 from rollsim.solver.stepping import StepControl, solve_load_path
-from rollsim.solver.steady import (NoSteadyState, RollingWindow, SteadyRolling, rolling_window_mesh)
+from rollsim.solver.steady import (NewtonKrylovControl, NoSteadyState, RollingWindow, SteadyRolling,
+                                   rolling_window_mesh)
 from rollsim.solver.steady_friction import DEFAULT_TANGENTIAL_RATIO, SurfaceFriction, SurfaceRows
 
 K = 1.0                                  # shear yield stress k (Pa)
@@ -605,6 +606,28 @@ def test_free_rolling_on_plastic_soil_resists_more_than_frictionless():
     assert res.spin < 1.0
     assert res.towing_force > ref.towing_force > 0
     assert st.horizontal_balance().towing_force == pytest.approx(res.towing_force, abs=1e-7 * res.vertical_force)
+
+
+@pytest.mark.serial
+def test_fixed_point_takes_over_where_newton_fails_and_finds_newtons_state():
+    """With one Newton iteration allowed, the solve fails, unless the elastic fixed point takes
+    over: the cylinder held with Coulomb friction (mu = 0.3, spin 1) on the von Mises soil at 4 and
+    8 mm then reaches the state Newton-Krylov finds (forces within 1e-6)."""
+    mesh = rolling_window_mesh(MPI.COMM_SELF, FRICTION_WINDOW)
+    newton = SteadyRolling(mesh, SOIL, wheel=WHEEL, friction=0.3)
+    one_step = NewtonKrylovControl(max_iterations=1)
+    fixed = SteadyRolling(mesh, SOIL, wheel=WHEEL, friction=0.3, control=one_step)
+    with pytest.raises(NoSteadyState, match="did not converge in 1 iterations"):
+        fixed.solve_sinkage(0.004, max_cuts=0)
+    fixed.restart()
+    fixed.control = replace(one_step, fixed_point_iterations=5000)
+    for sinkage in (0.004, 0.008):
+        ref, res = newton.solve_sinkage(sinkage), fixed.solve_sinkage(sinkage)
+        assert res.fixed_point_iterations > 0 and res.newton_iterations == 1
+        assert res.residual_norms[-1] <= one_step.rtol
+        for a, b in ((res.vertical_force, ref.vertical_force), (res.towing_force, ref.towing_force)):
+            assert a == pytest.approx(b, rel=1e-6)
+    assert ref.max_accumulated_plastic_strain > 0
 
 
 @pytest.mark.serial
