@@ -252,13 +252,18 @@ def rate_independent_reach(args) -> int:
             try:
                 res = st.solve_free_rolling(1e-3 * s)
             except NoSteadyState as err:
-                stop = f"fails: {str(err).split(': ', 1)[1].split('; the load may')[0]}"
+                stop = f"fails: {_cause(err)}"
                 break
             reached, force, forward = s, res.vertical_force / 1e3, 1e3 * st.surface_displacement()[1][0, 0]
         dofs = st.V.dofmap.index_map.size_global * 2
         print(f"| {name} | {1e3 * window.cell_size:.0f} | {dofs} | {mu:g} | {length:g} | {reached:g} | {force:.1f} | "
               f"{forward:.1f} | {stop} | {time.perf_counter() - t0:.0f} s |", flush=True)
     return 0
+
+
+def _cause(err: NoSteadyState) -> str:
+    """Why a steady solve failed: its message without the sinkage and the closing remark."""
+    return str(err).split(": ", 1)[1].split("; the load may")[0]
 
 
 def relaxation_removed(args) -> int:
@@ -281,7 +286,7 @@ def relaxation_removed(args) -> int:
             else:
                 res = st.solve_sinkage(sinkage, max_cuts=0)
         except NoSteadyState as err:
-            print(f"| {length:.3g} | none: {str(err).split(': ', 1)[1].split('; the load may')[0]} | | | | | "
+            print(f"| {length:.3g} | none: {_cause(err)} | | | | | "
                   f"{time.perf_counter() - t0:.0f} s |", flush=True)
             break
         print(f"| {length:.3g} | {res.vertical_force / 1e3:.1f} | {1e3 * st.surface_displacement()[1][0, 0]:.1f} | "

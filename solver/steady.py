@@ -1002,13 +1002,7 @@ class SteadyRolling:
         ``refactor``) the preconditioner; the preconditioner (the elastic stiffness, or the return
         map's local tangent, plus the contact's and the friction's nodal stiffness) then factored
         again."""
-        if self._contact_stiffness is not None:
-            if self._contact_matrix is not None:
-                self._contact_matrix.destroy()
-            # zero on the fixed dofs' rows, columns and diagonal: the elastic stiffness has its ones there
-            self._contact_matrix = fpetsc.assemble_matrix(self._contact_stiffness)
-            self._contact_matrix.assemble()
-            self._contact_matrix.zeroRowsColumns(self._fixed_global, diag=0.0)
+        self._update_contact_matrix()
         if not refactor and self._preconditioner_matrix is not None:
             return
         M = self._preconditioner_full
@@ -1022,14 +1016,29 @@ class SteadyRolling:
                 self._projection.add_jacobian(M, self.bcs, self._at_points(tangent))
         else:
             self._elastic_full.copy(M, structure=PETSc.Mat.Structure.SAME_NONZERO_PATTERN)
-        if self._contact_matrix is not None:
-            M.axpy(1.0, self._contact_matrix, structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
-        if self._friction is not None:
-            self._add_friction_stiffness(M)
+        self._add_contact_and_friction(M)
         first = self._preconditioner_matrix is None
         self._preconditioner_matrix = self._reduced_matrix(M, self._preconditioner_matrix)
         if first:
             self._ksp.setOperators(self._jacobian, self._preconditioner_matrix[0])
+
+    def _update_contact_matrix(self) -> None:
+        """:attr:`_contact_matrix`: the contact's stiffness at the current displacement, zero on the
+        fixed dofs' rows, columns and diagonal (the elastic stiffness has its ones there)."""
+        if self._contact_stiffness is None:
+            return
+        if self._contact_matrix is not None:
+            self._contact_matrix.destroy()
+        self._contact_matrix = fpetsc.assemble_matrix(self._contact_stiffness)
+        self._contact_matrix.assemble()
+        self._contact_matrix.zeroRowsColumns(self._fixed_global, diag=0.0)
+
+    def _add_contact_and_friction(self, M: PETSc.Mat) -> None:
+        """Add the contact's stiffness (:attr:`_contact_matrix`) and the friction's nodal blocks to ``M``."""
+        if self._contact_matrix is not None:
+            M.axpy(1.0, self._contact_matrix, structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
+        if self._friction is not None:
+            self._add_friction_stiffness(M)
 
     def jacobian_action(self, x: PETSc.Vec, y: PETSc.Vec) -> None:
         """``y = P^T J P x`` at the state of the last residual (identity on the fixed and tied dofs)."""
@@ -1420,14 +1429,8 @@ class SteadyRolling:
         contact's stiffness at the current displacement and the friction's nodal blocks."""
         M = fpetsc.assemble_matrix(self._elastic_form, bcs=self.bcs)
         M.assemble()
-        if self._contact_stiffness is not None:
-            C = fpetsc.assemble_matrix(self._contact_stiffness)
-            C.assemble()
-            C.zeroRowsColumns(self._fixed_global, diag=0.0)
-            M.axpy(1.0, C, structure=PETSc.Mat.Structure.SUBSET_NONZERO_PATTERN)
-            C.destroy()
-        if self._friction is not None:
-            self._add_friction_stiffness(M)
+        self._update_contact_matrix()
+        self._add_contact_and_friction(M)
         reduced, product = self._reduced_matrix(M)
         for obj in (M, product):
             obj.destroy()
