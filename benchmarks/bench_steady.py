@@ -36,9 +36,11 @@ order of the last three.
 ``--soil`` (as ``reach``), cells of 0.1 d / ``--cells-per-half-width``: the soil relaxed by
 ``--relaxation`` mm, then the length halved ``--halvings`` times, then not relaxed, each state
 from the last; Newton-Krylov and, where it fails, the elastic fixed point (at most
-``--fixed-point`` iterations): per length Q_V per metre, how far the surface leaves the window
-moved forward, the largest accumulated plastic strain, the Newton and fixed-point iterations and
-the wall time.  ``reach`` takes ``--fixed-point`` too.
+``--fixed-point`` iterations, Newton tried again from its iterate after ``--newton-retry`` of
+them, then after twice as many more each time; 0: never): per length Q_V per metre, how far the
+surface leaves the window moved forward, the largest accumulated plastic strain, the Newton and
+fixed-point iterations and the wall time.  ``reach`` takes ``--fixed-point`` too, and
+``--newton-retry`` with several values, each in turn.
 
 ``towed``: the frictionless Mn/DOT cylinder (d = 1.524 m) towed in plane strain over ``--soil``:
 clay (von Mises, E = 40 MPa, nu = 0.35, q_y = 200 kPa) or the report's case 5 (Drucker-Prager,
@@ -86,12 +88,14 @@ frictionless, at 100 kN; ``case2``: the clay of case 2, c_dp = 200 kPa, mu = 0.8
 report's rolling case 8, phi_dp = 45.4 deg, c_dp = 89.1 kPa, mu = 0.8; each at the load it was
 rolled at unless ``--load`` is given), each ``--strain``,
 on fine cells of d / each of ``--levels`` at the contact: the steady sinkage, Q_H, rut, dofs,
-Newton iterations and wall time per level; over the last three levels the observed order and
-the Richardson value, and the last refinement's change.  B-bar reaches its rate-independent
+Newton and fixed-point iterations and wall time per level; over the last three levels the
+observed order and the Richardson value, and the last refinement's change.  B-bar reaches its rate-independent
 state through the relaxation's limit (the driver's route; its extrapolated sinkage is the
 level's).  With ``--relaxation-per-spacing`` the soil is relaxed by that many of each level's
 shortest station spacings (``[model] relaxation_length``: a relaxation that shrinks with the
-cells).  ``--out``: the rows as JSON, one file per soil and strain, appended as they finish.
+cells).  ``--fixed-point``: the elastic fixed point's iterations per state where Newton fails
+(0: Newton alone, the driver's default).  ``--out``: the rows as JSON, one file per soil and strain,
+appended as they finish.
 
 ``profile``: one steady state of the same roller towed at ``--sinkage`` mm on cells of d /
 ``--refinement`` (``--strain``), the spin found for zero axle torque from the undisturbed soil:
@@ -105,9 +109,9 @@ solved with each (GMRES's Eisenstat-Walker forcing; 0: the fixed tolerance) in t
         [--travel 14] [--step 0.0625] [--distance 5] [--out bench_steady.json]
     mpirun -n 2 python -m benchmarks steady ranks [--cells-per-half-width 2] [--sinkage 2.5 5]
     python -m benchmarks steady reach [--soil case2 case8] [--cells-per-half-width 2 4 8] [--friction 0 0.8]
-        [--relaxation 0] [--step 1] [--deepest 40] [--fixed-point 0]
+        [--relaxation 0] [--step 1] [--deepest 40] [--fixed-point 0] [--newton-retry 0 100]
     python -m benchmarks steady shove [--soil case8] [--sinkage 10] [--cells-per-half-width 8]
-        [--relaxation 5] [--halvings 6] [--fixed-point 20000]
+        [--relaxation 5] [--halvings 6] [--fixed-point 20000] [--newton-retry 100]
     python -m benchmarks steady stabilised [--soil case2 case8] [--per-spacing 0.25 1] [--cells-per-half-width 4 8 16]
     python -m benchmarks steady towed [--soil clay] [--sinkage 2 3 4] [--cells-per-half-width 4]
     python -m benchmarks steady wheel [--soil case5] [--sinkage 4 6] [--travel 4] [--cells-per-half-width 4]
@@ -118,7 +122,7 @@ solved with each (GMRES's Eisenstat-Walker forcing; 0: the fixed tolerance) in t
         [--forcing 0 0.1]
     mpirun -n 2 python -m benchmarks steady convergence [--soil case5 case17 clay case2]
         [--strain pointwise cell-average] [--levels 10 20 30 40] [--load KN] [--relaxation-per-spacing R]
-        [--out DIR]
+        [--fixed-point N] [--out DIR]
     mpirun -n 2 python -m benchmarks steady limit [--refinement 20] [--strain cell-average]
         [--load 133.5] [--friction 0.8]
 """
@@ -197,6 +201,8 @@ def main() -> int:
     conv.add_argument("--load", type=float, help="kN (default: the soil's, as rolled)")
     conv.add_argument("--relaxation-per-spacing", type=float,
                       help="relax the soil by this many station spacings of each level (default: not)")
+    conv.add_argument("--fixed-point", type=int, default=0,
+                      help="fixed-point iterations per state where Newton fails (0: Newton alone)")
     conv.add_argument("--out", help="directory of the JSON rows")
     prof = sub.add_parser("profile", help="3D roller, one steady state: where the time goes")
     prof.add_argument("--refinement", type=float, default=20.0, help="elements per d at the contact")
@@ -212,6 +218,8 @@ def main() -> int:
     reach.add_argument("--step", type=float, default=1.0, help="sinkage step, mm")
     reach.add_argument("--deepest", type=float, default=40.0, help="mm")
     reach.add_argument("--fixed-point", type=int, default=0, help="fixed-point iterations where Newton fails")
+    reach.add_argument("--newton-retry", type=int, nargs="+", default=[100],
+                       help="fixed-point iterations before Newton is tried again (0: never), each in turn")
     shove = sub.add_parser("shove", help="plane strain, held cylinder: the relaxation taken away")
     shove.add_argument("--soil", choices=sorted(REACH_SOILS), default="case8")
     shove.add_argument("--sinkage", type=float, default=10.0, help="mm")
@@ -219,6 +227,8 @@ def main() -> int:
     shove.add_argument("--relaxation", type=float, default=5.0, help="the first relaxation length, mm")
     shove.add_argument("--halvings", type=int, default=6, help="halvings of the relaxation length before none")
     shove.add_argument("--fixed-point", type=int, default=20000, help="fixed-point iterations where Newton fails")
+    shove.add_argument("--newton-retry", type=int, default=100,
+                       help="fixed-point iterations before Newton is tried again (0: never)")
     stab = sub.add_parser("stabilised", help="plane strain, towed cylinder at the load: relaxation ~ cells")
     stab.add_argument("--soil", nargs="+", choices=sorted(REACH_SOILS), default=sorted(REACH_SOILS))
     stab.add_argument("--per-spacing", type=float, nargs="+", default=[0.25, 1.0],
@@ -239,14 +249,14 @@ TOWED_SOILS = {"clay": VonMises(E=40e6, nu=0.35, yield_stress=200e3),
 
 def rate_independent_reach(args) -> int:
     """The ``reach`` problem (module docstring)."""
-    print("| soil | cells at the contact (mm) | dofs | mu | relaxation (mm) | deepest steady state (mm) | Q_V there "
-          "(kN/m) | surface moved forward there (mm) | the next step | wall time |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
-    for name, cells, mu, length in itertools.product(args.soil, args.cells_per_half_width, args.friction,
-                                                      args.relaxation):
+    print("| soil | cells at the contact (mm) | dofs | mu | relaxation (mm) | Newton retried after | deepest steady "
+          "state (mm) | Q_V there (kN/m) | surface moved forward there (mm) | the next step | wall time |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    for name, cells, mu, length, retry in itertools.product(args.soil, args.cells_per_half_width, args.friction,
+                                                             args.relaxation, args.newton_retry):
         st, window = _reach_problem(name, cells, mu)
         st.relaxation_length = 1e-3 * length
-        st.control = replace(st.control, fixed_point_iterations=args.fixed_point)
+        st.control = replace(st.control, fixed_point_iterations=args.fixed_point, newton_retry=retry)
         t0, reached, force, forward, stop = time.perf_counter(), 0.0, 0.0, 0.0, f"none to {args.deepest:g} mm"
         for s in np.arange(1, round(args.deepest / args.step) + 1) * args.step:
             try:
@@ -256,8 +266,8 @@ def rate_independent_reach(args) -> int:
                 break
             reached, force, forward = s, res.vertical_force / 1e3, 1e3 * st.surface_displacement()[1][0, 0]
         dofs = st.V.dofmap.index_map.size_global * 2
-        print(f"| {name} | {1e3 * window.cell_size:.0f} | {dofs} | {mu:g} | {length:g} | {reached:g} | {force:.1f} | "
-              f"{forward:.1f} | {stop} | {time.perf_counter() - t0:.0f} s |", flush=True)
+        print(f"| {name} | {1e3 * window.cell_size:.0f} | {dofs} | {mu:g} | {length:g} | {retry or 'never'} | "
+              f"{reached:g} | {force:.1f} | {forward:.1f} | {stop} | {time.perf_counter() - t0:.0f} s |", flush=True)
     return 0
 
 
@@ -269,7 +279,7 @@ def _cause(err: NoSteadyState) -> str:
 def relaxation_removed(args) -> int:
     """The ``shove`` problem (module docstring)."""
     st, window = _reach_problem(args.soil, args.cells_per_half_width, 0.0)
-    st.control = replace(st.control, fixed_point_iterations=args.fixed_point)
+    st.control = replace(st.control, fixed_point_iterations=args.fixed_point, newton_retry=args.newton_retry)
     sinkage = 1e-3 * args.sinkage
     lengths = [args.relaxation * 0.5 ** k for k in range(args.halvings + 1)] + [0.0]
     print(f"{args.soil}, held at {args.sinkage:g} mm, frictionless, plane strain, cells of "
@@ -651,7 +661,9 @@ def mesh_convergence(args) -> int:
     """The ``convergence`` problem (module docstring)."""
     import json
     from rollsim.scene import parse_scene
+    from rollsim.solver.steady import NewtonKrylovControl
     comm = MPI.COMM_WORLD
+    control = NewtonKrylovControl(fixed_point_iterations=args.fixed_point)
     for soil in args.soil:
         friction, layers, load = CONVERGENCE_SOILS[soil]
         load = args.load or load
@@ -662,7 +674,8 @@ def mesh_convergence(args) -> int:
                 print(f"\n{soil}, {strain}, towed at {load:g} kN" + (f", relaxed by {ratio:g} station spacing(s)"
                                                                      if ratio else "") +
                       "\n| cells at the contact | dofs | status | sinkage (mm) | Q_H (kN) | rut (mm) | surface moved "
-                      "forward (mm) | Newton its | wall (s) |\n|---|---|---|---|---|---|---|---|---|", flush=True)
+                      "forward (mm) | Newton its | fixed-point its | wall (s) |\n|---|---|---|---|---|---|---|---|---|---|",
+                      flush=True)
             for level in args.levels:
                 model = {"rolling": "steady", "refinement": level, "volumetric_strain": strain}
                 if ratio:
@@ -671,10 +684,11 @@ def mesh_convergence(args) -> int:
                                      "soil": {"gamma": "20 kN/m^3", "layers": layers},
                                      "loading": {"protocol": "rolling-constant-load", "load": f"{load} kN"},
                                      "model": model})
-                r, _ = _steady_run(scene, comm)
+                r, _ = _steady_run(scene, comm, control=control)
                 rows.append({"level": level, "dofs": r["dofs"], "status": r["status"], "reason": r.get("reason"),
                              "sinkage_m": r["sinkage_m"], "QH_N": r["QH_N"], "rut_m": r.get("rut_depth_m"),
                              "newton_iterations": r["newton_iterations"], "wall_time_s": r["wall_time_s"],
+                             "fixed_point_iterations": r.get("fixed_point_iterations"),
                              "relaxation_limit": r.get("relaxation_limit"),
                              "relaxation_length_m": model.get("relaxation_length", 0.0),
                              "surface_forward_m": r.get("surface_forward_m")})
@@ -682,7 +696,8 @@ def mesh_convergence(args) -> int:
                     print(f"| d/{level:g} | {r['dofs']} | {r['status']} | {1e3 * r['sinkage_m']:.2f} | "
                           f"{r['QH_N'] / 1e3:.2f} | {1e3 * (r.get('rut_depth_m') or float('nan')):.2f} | "
                           f"{1e3 * (r.get('surface_forward_m') or float('nan')):.1f} | "
-                          f"{r['newton_iterations']} | {r['wall_time_s']:.0f} |", flush=True)
+                          f"{r['newton_iterations']} | {r.get('fixed_point_iterations')} | {r['wall_time_s']:.0f} |",
+                          flush=True)
                     if r["status"] != "ok":
                         print(f"  ({r['status']}: {r.get('reason')})", flush=True)
                     if args.out:

@@ -305,7 +305,9 @@ class NewtonKrylovControl:
     Eisenstat-Walker forcing term (choice 2: 0.9 times the square of the residual's last
     reduction, kept between ``ksp_rtol`` and ``forcing``; the first step ``forcing``).  Where
     Newton fails, ``fixed_point_iterations`` > 0 continues from its last iterate by the elastic
-    fixed point (:meth:`SteadyRolling._fixed_point`) for at most that many iterations."""
+    fixed point (:meth:`SteadyRolling._fixed_point`) for at most that many iterations, trying
+    Newton again from its iterate after ``newton_retry`` of them (then after twice as many more
+    each time Newton fails; 0: never)."""
 
     rtol: float = 1e-8
     max_iterations: int = 30
@@ -313,6 +315,7 @@ class NewtonKrylovControl:
     refactor_iterations: int = 30
     forcing: float = 0.1
     fixed_point_iterations: int = 0
+    newton_retry: int = 100
 
     def __post_init__(self):
         if not 0 < self.rtol < 1:
@@ -327,6 +330,8 @@ class NewtonKrylovControl:
             raise ValueError(f"forcing must lie in [0, 1), got {self.forcing!r}")
         if not (isinstance(self.fixed_point_iterations, int) and self.fixed_point_iterations >= 0):
             raise ValueError(f"fixed_point_iterations must be an integer >= 0, got {self.fixed_point_iterations!r}")
+        if not (isinstance(self.newton_retry, int) and self.newton_retry >= 0):
+            raise ValueError(f"newton_retry must be an integer >= 0, got {self.newton_retry!r}")
 
 
 @dataclass(frozen=True)
@@ -1171,7 +1176,7 @@ class SteadyRolling:
             raise ValueError(f"torque_rtol must lie in (0, 1), got {torque_rtol!r}")
         R = self.wheel.diameter / 2
         self._predict_spin = self._friction is not None     # the first solve's spin along the secant too
-        started, work = time.perf_counter(), np.zeros(3, dtype=int)      # Newton, Krylov, sweeps
+        started, work = time.perf_counter(), np.zeros(4, dtype=int)      # Newton, Krylov, sweeps, fixed point
         try:
             result = self._counted(self.solve_sinkage(sinkage, inflow), work, started)
         finally:
@@ -1220,10 +1225,11 @@ class SteadyRolling:
 
     @staticmethod
     def _counted(result: SteadyRollingResult, work: np.ndarray, started: float) -> SteadyRollingResult:
-        """``result`` with the Newton and Krylov iterations and sweeps of all the solves so far
-        (``work``, added to in place) and the wall time since ``started``."""
-        work += (result.newton_iterations, result.krylov_iterations, result.sweeps)
-        result.newton_iterations, result.krylov_iterations, result.sweeps = (int(w) for w in work)
+        """``result`` with the Newton, Krylov and fixed-point iterations and sweeps of all the
+        solves so far (``work``, added to in place) and the wall time since ``started``."""
+        work += (result.newton_iterations, result.krylov_iterations, result.sweeps, result.fixed_point_iterations)
+        (result.newton_iterations, result.krylov_iterations, result.sweeps,
+         result.fixed_point_iterations) = (int(w) for w in work)
         result.wall_time = time.perf_counter() - started
         return result
 
@@ -1318,32 +1324,53 @@ class SteadyRolling:
         return norm
 
     def _newton(self, inflow: StreamlineState | None, load_text: str) -> SteadyRollingResult:
-        """Newton-Krylov from the current displacement to the steady state under the load set."""
+        """Newton-Krylov from the current displacement to the steady state under the load set; where
+        it fails, the fixed point (:meth:`_fixed_point`) if ``control.fixed_point_iterations``."""
         inflow = self.inflow if inflow is None else inflow
         if inflow.stress.shape[0] != len(self.streamline_depths):
             raise ValueError(f"inflow state has {inflow.stress.shape[0]} streamlines, the mesh "
                              f"{len(self.streamline_depths)}")
-        ctl = self.control
         t0 = time.perf_counter()
-        self._counts = {"sweeps": 0, "krylov": 0}
+        self._counts = {"sweeps": 0, "krylov": 0, "newton": 0}
+        history: list[float] = []
+        failure = self._newton_iterations(inflow, load_text, history)
+        fixed_point = 0
+        if failure is not None:
+            if not self.control.fixed_point_iterations:
+                self._fail(load_text, failure)
+            fixed_point = self._fixed_point(inflow, load_text, failure, history)
+        S, EP, ACC = self._fields
+        outflow = StreamlineState(S[:, -1].copy(), EP[:, -1].copy(), ACC[:, -1].copy())
+        return SteadyRollingResult(peak_pressure=None, newton_iterations=self._counts["newton"],
+                                   fixed_point_iterations=fixed_point, krylov_iterations=self._counts["krylov"],
+                                   sweeps=self._counts["sweeps"], wall_time=time.perf_counter() - t0,
+                                   outflow=outflow,
+                                   max_accumulated_plastic_strain=self.comm.allreduce(float(ACC.max(initial=0.0)),
+                                                                                      MPI.MAX),
+                                   residual_norms=history)
+
+    def _newton_iterations(self, inflow: StreamlineState, load_text: str, history: list[float]) -> str | None:
+        """Newton-Krylov steps from the current displacement until the residual passes
+        ``control.rtol`` (``None``) or they fail (the cause; the displacement is then that of the
+        last step taken).  Appends the relative residuals to ``history``."""
+        ctl = self.control
         scale = self._load_norm()
         b = self.residual(inflow)
         norm = b.norm()
-        history = [norm / scale]
-        it, failure = 0, None
+        history.append(norm / scale)
+        it = 0
         while not history[-1] <= ctl.rtol:
             if not math.isfinite(norm):
                 self._fail(load_text, "the residual is not finite")
             if it == ctl.max_iterations:
-                failure = (f"Newton-Krylov did not converge in {it} iterations (residual {history[-1]:.2e} of the "
-                           f"load's, wanted {ctl.rtol:.0e})")
-                break
+                return (f"Newton-Krylov did not converge in {it} iterations (residual {history[-1]:.2e} of the "
+                        f"load's, wanted {ctl.rtol:.0e})")
             if self.wheel is not None or self._tangent_form is not None:
                 # the factorization is kept while GMRES converges quickly on it (the action is exact)
                 self._update_preconditioner(it == 0 or self._ksp.getIterationNumber() > self.control.refactor_iterations)
             eta = self._krylov_rtol
             if ctl.forcing:                         # Eisenstat-Walker (choice 2, gamma 0.9, alpha 2)
-                eta = ctl.forcing if len(history) == 1 else \
+                eta = ctl.forcing if it == 0 else \
                     min(ctl.forcing, max(0.9 * (history[-1] / history[-2]) ** 2, self._krylov_rtol))
             u0 = self.u.x.array.copy()
             trial, alpha = self._line_search(inflow, b, norm, scale, eta, u0)
@@ -1354,47 +1381,37 @@ class SteadyRolling:
                 trial, alpha = self._line_search(inflow, b, norm, scale, self._krylov_rtol, u0)
             if trial is None:
                 self.u.x.array[:] = u0
-                failure = f"no Newton step lowers the residual ({norm / scale:.2e} of the load's after {it} iterations)"
-                break
+                return f"no Newton step lowers the residual ({norm / scale:.2e} of the load's after {it} iterations)"
             b, norm = trial
             if self.wheel is not None:
                 scale = self._load_norm()
             it += 1
+            self._counts["newton"] += 1
             history.append(norm / scale)
             log.debug("steady rolling %s: Newton %d, residual %.3e, step %.3g, GMRES %d", load_text,
                       it, history[-1], alpha, self._ksp.getIterationNumber())
-        fixed_point = 0
-        if failure is not None:
-            if not ctl.fixed_point_iterations:
-                self._fail(load_text, failure)
-            fixed_point = self._fixed_point(inflow, load_text, failure, history)
-        S, EP, ACC = self._fields
-        outflow = StreamlineState(S[:, -1].copy(), EP[:, -1].copy(), ACC[:, -1].copy())
-        return SteadyRollingResult(peak_pressure=None, newton_iterations=it, fixed_point_iterations=fixed_point,
-                                   krylov_iterations=self._counts["krylov"], sweeps=self._counts["sweeps"],
-                                   wall_time=time.perf_counter() - t0, outflow=outflow,
-                                   max_accumulated_plastic_strain=self.comm.allreduce(float(ACC.max(initial=0.0)),
-                                                                                      MPI.MAX),
-                                   residual_norms=history)
+        return None
 
     def _fixed_point(self, inflow: StreamlineState, load_text: str, failure: str, history: list[float]) -> int:
         """Where Newton failed (``failure``): the elastic fixed point (the initial-stiffness method)
         ``u <- u - P M^-1 P^T R(u)`` from the current displacement, ``M`` the elastic stiffness plus
         the contact's and the friction's (:meth:`_fixed_point_matrix`, made again every
         :data:`FIXED_POINT_REFACTOR` iterations as the contact changes).  It needs no derivative of
-        the sweep, and converges linearly where it converges.  Appends the residuals to
-        ``history``; returns the iterations; raises :class:`NoSteadyState` when the residual has not
-        fallen by a tenth in :data:`FIXED_POINT_PATIENCE` iterations, or after
-        ``control.fixed_point_iterations``."""
+        the sweep and carries the iterate past where Newton's line search finds no descent; after
+        ``control.newton_retry`` iterations Newton is tried again from there
+        (:meth:`_newton_from_fixed_point`), and again after twice as many more each time it fails.
+        Appends the residuals to ``history``; returns the fixed-point iterations; raises
+        :class:`NoSteadyState` when the residual has not fallen by a tenth in
+        :data:`FIXED_POINT_PATIENCE` iterations, or after ``control.fixed_point_iterations``."""
         ctl = self.control
         ksp = PETSc.KSP().create(self.comm)
         ksp.setType("preonly")
         ksp.getPC().setType("lu")
         ksp.getPC().setFactorSolverType("mumps")
         x, rhs = self._b.duplicate(), self._b.duplicate()
-        scale = self._load_norm()
         b = self.residual(inflow)
-        best, since, M = b.norm() / scale, 0, None
+        best, since, M = history[-1], 0, None
+        newton_at, wait = ctl.newton_retry, ctl.newton_retry
         try:
             for it in range(1, ctl.fixed_point_iterations + 1):
                 if (it - 1) % FIXED_POINT_REFACTOR == 0:
@@ -1408,12 +1425,16 @@ class SteadyRolling:
                 self._tie.mult(x, compat.petsc_vector(self._du))
                 self._du.x.scatter_forward()
                 self.u.x.array[:] += self._du.x.array
-                if self.wheel is not None:
-                    scale = self._load_norm()
                 b = self.residual(inflow)
-                history.append(b.norm() / scale)
+                history.append(b.norm() / self._load_norm())
                 if history[-1] <= ctl.rtol:
                     return it
+                if it == newton_at:
+                    if self._newton_from_fixed_point(inflow, load_text, history):
+                        return it
+                    b = self.residual(inflow)
+                    wait *= 2
+                    newton_at += wait
                 best, since = (history[-1], 0) if history[-1] < 0.9 * best else (best, since + 1)
                 if since == FIXED_POINT_PATIENCE or not math.isfinite(history[-1]):
                     break
@@ -1423,6 +1444,17 @@ class SteadyRolling:
             for obj in (ksp, x, rhs, M):
                 if obj is not None:
                     obj.destroy()
+
+    def _newton_from_fixed_point(self, inflow: StreamlineState, load_text: str, history: list[float]) -> bool:
+        """Newton-Krylov from the fixed point's iterate: whether it converged (its residuals then
+        appended to ``history``); if not, the displacement is the fixed point's again."""
+        u0 = self.u.x.array.copy()
+        tried: list[float] = []
+        if self._newton_iterations(inflow, load_text, tried) is None:
+            history.extend(tried[1:])
+            return True
+        self.u.x.array[:] = u0
+        return False
 
     def _fixed_point_matrix(self) -> PETSc.Mat:
         """The fixed point's matrix, reduced by the rear tie: the elastic stiffness plus the

@@ -631,6 +631,27 @@ def test_fixed_point_takes_over_where_newton_fails_and_finds_newtons_state():
 
 
 @pytest.mark.serial
+def test_newton_tried_again_from_the_fixed_point_finishes_the_solve():
+    """With full Newton steps only (``min_step`` 1) Newton fails from the surface; the fixed point
+    carries the iterate on and, tried again after 5 of its iterations (then 10, 20, ... more),
+    Newton converges from there to Newton-Krylov's state (forces within 1e-6, mu = 0.3)."""
+    mesh = rolling_window_mesh(MPI.COMM_SELF, FRICTION_WINDOW)
+    full_steps = NewtonKrylovControl(min_step=1.0)
+    for sinkage in (0.004, 0.008):
+        ref = SteadyRolling(mesh, SOIL, wheel=WHEEL, friction=0.3).solve_sinkage(sinkage)
+        st = SteadyRolling(mesh, SOIL, wheel=WHEEL, friction=0.3, control=full_steps)
+        with pytest.raises(NoSteadyState, match="no Newton step lowers the residual"):
+            st.solve_sinkage(sinkage, max_cuts=0)
+        st.restart()
+        st.control = replace(full_steps, fixed_point_iterations=1000, newton_retry=5)
+        res = st.solve_sinkage(sinkage, max_cuts=0)
+        assert res.fixed_point_iterations in (5, 15, 35, 75) and res.newton_iterations > 1
+        assert res.residual_norms[-1] <= full_steps.rtol
+        for a, b in ((res.vertical_force, ref.vertical_force), (res.towing_force, ref.towing_force)):
+            assert a == pytest.approx(b, rel=1e-6)
+
+
+@pytest.mark.serial
 def test_continuing_below_the_last_solve_starts_from_undisturbed_soil_and_spin():
     """Set up for a sinkage shallower than the last solve with no state short of it (the
     relaxation's route after a failed rate-independent one), the solve starts from the

@@ -96,16 +96,16 @@ def steady_problem(scene, comm: MPI.Comm, window: RollingWindow, *, penalty: flo
 
 
 def run_steady(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_options: dict | None = None,
-               write_fields: bool = True, penalty: float | None = None, window: dict | None = None) -> dict:
+               write_fields: bool = True, penalty: float | None = None, window: dict | None = None, **options) -> dict:
     """Steady rolling of ``scene`` (rigid cylinder, uniform or layered soil) on ``comm``; writes the run
     directory ``out_dir`` and returns the summary.  ``window``: extents in d in place of
-    :data:`WINDOW`'s (studies of the window's effect, tests).  A steady state that cannot be found
-    ends the run as ``"failed"`` with the reason; the states found before it are kept."""
+    :data:`WINDOW`'s (studies of the window's effect, tests); ``options``: :func:`steady_problem`'s
+    (``control``).  A steady state not found ends the run as ``"failed"`` (the reason; those found kept)."""
     t_start = time.perf_counter()
     out = make_run_directory(out_dir, comm)
     window = steady_window(scene, window)
     alpha = scene_penalty(scene, penalty)
-    steady = steady_problem(scene, comm, window, petsc_options=petsc_options, penalty=alpha)
+    steady = steady_problem(scene, comm, window, petsc_options=petsc_options, penalty=alpha, **options)
     dofs = steady.V.dofmap.index_map.size_global * steady.gdim
     if progress and comm.rank == 0:
         log.info("steady rolling (%s) of a rigid cylinder d = %g m, b = %g m: window %.3g m ahead, %.3g m "
@@ -113,18 +113,17 @@ def run_steady(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_o
                  scene.loading.protocol, scene.wheel.diameter, scene.wheel.width, window.ahead, window.behind,
                  window.depth, window.across, window.cell_size, dofs, comm.size)
     rows: list[dict] = []
-    results: dict = {"inflow": steady.inflow, "pass": 1}     # the soil the current pass meets
+    results: dict = {"inflow": steady.inflow, "pass": 1, "fixed_point": 0}     # the soil the current pass meets
     states: dict = {}               # sinkage -> (displacement, spin, Q_V) of the states solved
     passes: list[dict] = []
 
     def record(res) -> None:
         rows.append(_row(len(rows) + 1, res, scene.wheel.diameter, t_start))
         write_history(out, rows, comm)
-        results.update(last=res, state=(steady.u.x.array.copy(), steady.spin), state_inflow=results["inflow"])
+        results.update(last=res, state=(steady.u.x.array.copy(), steady.spin), state_inflow=results["inflow"],
+                       fixed_point=results["fixed_point"] + res.fixed_point_iterations)
         if progress and comm.rank == 0:
-            log.info("steady state %d: s = %.4g mm, Q_V = %.4g kN, Q_H = %.4g kN, spin %.5f (%d Newton, %d Krylov, "
-                     "%.1f s)", len(rows), 1e3 * res.sinkage, res.vertical_force / 1e3, res.towing_force / 1e3,
-                     res.spin, res.newton_iterations, res.krylov_iterations, res.wall_time)
+            _log_state(len(rows), res)
 
     def solve(sinkage: float):
         res = steady.solve_free_rolling(sinkage, results["inflow"], torque_rtol=TORQUE_RTOL)
@@ -162,6 +161,7 @@ def run_steady(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_o
     line = _centre_line(steady, rows[-1]["sinkage_m"]) if rows else None
     summary = _summary(scene, steady, window, rows, results.get("last"), line, status, reason, diagnostics,
                        t_start, dofs, alpha)
+    summary["fixed_point_iterations"] = results["fixed_point"]
     if "limit" in results:
         _add_limit(summary, results["limit"])
     several = (scene.loading.passes or 1) > 1
@@ -175,6 +175,13 @@ def run_steady(scene, out_dir, comm: MPI.Comm, *, progress: bool = True, petsc_o
     if several and passes and "rut_depth_m" in summary:
         summary["rut_depth_m"] = passes[-1]["total_rut_m"]        # of all passes (the profile: the last's)
     return finish_run(out, rows, scene, summary, comm, progress=progress)
+
+
+def _log_state(step: int, res) -> None:
+    """The progress line of the ``step``-th steady state recorded."""
+    log.info("steady state %d: s = %.4g mm, Q_V = %.4g kN, Q_H = %.4g kN, spin %.5f (%d Newton, %d Krylov, "
+             "%d fixed-point, %.1f s)", step, 1e3 * res.sinkage, res.vertical_force / 1e3, res.towing_force / 1e3,
+             res.spin, res.newton_iterations, res.krylov_iterations, res.fixed_point_iterations, res.wall_time)
 
 
 class WheelPloughs(NoSteadyState):
