@@ -1082,15 +1082,21 @@ class SteadyRolling:
         undisturbed surface, turning at :attr:`spin`, with the contact's forces and torque on it;
         Newton starts from the last solve's displacement (continuation: step the sinkage up),
         extrapolated along the secant of the last two sinkages solved when it is the last of them
-        (by at most their distance).  When Newton fails on the way down from the last solve's sinkage (or from the surface), the
-        step is halved, from the last converged state, up to ``max_cuts`` times.  ``inflow`` as
-        in :meth:`solve`."""
+        (by at most their distance), or from the undisturbed soil when the wheel, raised, no
+        longer touches it.  When Newton fails on the way down from the last solve's sinkage (or
+        from the surface), the step is halved, from the last converged state, up to ``max_cuts``
+        times.  ``inflow`` as in :meth:`solve`."""
         if self.wheel is None:
             raise RuntimeError("this steady solve rolls a Hertz pressure: call solve()")
         if not (math.isfinite(sinkage) and sinkage > 0):
             raise ValueError(f"sinkage must be a positive depth (m), got {sinkage!r}")
         if not (isinstance(max_cuts, int) and max_cuts >= 0):
             raise ValueError(f"max_cuts must be an integer >= 0, got {max_cuts!r}")
+        self.axle_height.value = self.surface + self.wheel.diameter / 2 - sinkage
+        if self._load_norm() == 0.0:        # raised clear of the last state: from the undisturbed soil
+            spin = self.spin
+            self.restart()
+            self.spin = spin
         start = 0.0 if self._last_sinkage is None else self._last_sinkage
         u0 = self.u.x.array.copy()
         self._predict(sinkage)

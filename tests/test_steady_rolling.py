@@ -652,6 +652,20 @@ def test_newton_tried_again_from_the_fixed_point_finishes_the_solve():
 
 
 @pytest.mark.serial
+def test_a_raised_wheel_clear_of_the_last_state_starts_from_undisturbed_soil():
+    """Held at 4 mm after 12 mm (mu = 0.3, spin 1), the raised wheel no longer touches the soil's
+    last state: the solve starts from the undisturbed soil, stepping down from the surface, and
+    finds a fresh solver's state (forces to 1e-9)."""
+    mesh = rolling_window_mesh(MPI.COMM_SELF, FRICTION_WINDOW)
+    st = SteadyRolling(mesh, SOIL, wheel=WHEEL, friction=0.3)
+    st.solve_sinkage(0.012)
+    res, ref = st.solve_sinkage(0.004), SteadyRolling(mesh, SOIL, wheel=WHEEL, friction=0.3).solve_sinkage(0.004)
+    for a, b in ((res.vertical_force, ref.vertical_force), (res.towing_force, ref.towing_force)):
+        assert a == pytest.approx(b, rel=1e-9)
+    assert res.spin == 1.0
+
+
+@pytest.mark.serial
 def test_continuing_below_the_last_solve_starts_from_undisturbed_soil_and_spin():
     """Set up for a sinkage shallower than the last solve with no state short of it (the
     relaxation's route after a failed rate-independent one), the solve starts from the
