@@ -1144,7 +1144,7 @@ class SteadyRolling:
         return min((sinkage - s1) / (s1 - s0), 1.0) if current and s0 < s1 < sinkage else 0.0
 
     def _solve_sinkage(self, sinkage: float, inflow: StreamlineState | None) -> SteadyRollingResult:
-        self.axle_height.value = self.surface + self.wheel.diameter / 2 - sinkage
+        """The steady state at ``sinkage``, the axle already set there by :meth:`solve_sinkage`."""
         result = self._newton(inflow, f"at the sinkage {sinkage:.6g} m")
         if self._converged and self._converged[-1][0] == sinkage:
             self._converged.pop()
